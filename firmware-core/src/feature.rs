@@ -1,0 +1,277 @@
+//! The feature layout φ(s, a) ∈ R^F and the table of features for all actions.
+//!
+//! Every action `a` of a tick has a feature vector `φ(s, a)` of [`FEATURE_COUNT`] entries, in the
+//! order of [`Feature`]; a [`FeatureTable`] holds one row per action. The layout follows the paper's
+//! section 6: clearance to obstacles, clearance to each semantic class, the path error, and the
+//! lateral displacement of the trajectory's end (right positive). The lattice evaluator fills
+//! the table from an observation; tests and the synthetic teacher may fill it directly.
+//!
+//! Numbers in a table are trusted only after [`FeatureTable::check`]: each entry must be finite
+//! with magnitude at most [`FEATURE_BOUND`].
+//!
+//! ```
+//! use firmware_core::{dot, Feature, FeatureTable, ActionIndex, FEATURE_COUNT};
+//!
+//! let mut table = FeatureTable::ZERO;
+//! let a = ActionIndex::new(3).unwrap();
+//! table[a][Feature::Door.index()] = 2.5;
+//! let mut w = [0.0; FEATURE_COUNT];
+//! w[Feature::Door.index()] = 2.0;
+//! assert_eq!(dot(&w, &table[a]), 5.0);
+//! ```
+
+use core::fmt;
+use core::ops::{Index, IndexMut};
+
+use serde::{Deserialize, Serialize};
+
+use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
+
+/// Number of features per action.
+pub const FEATURE_COUNT: usize = 6;
+
+/// Largest magnitude a feature may have. Larger values are rejected as absurd.
+///
+/// The lattice evaluator's features stay far below it; the bound leaves room for
+/// hand-built or synthetic features while keeping every score `w·φ` far from `f32` overflow
+/// (`FEATURE_COUNT · WEIGHT_BOUND · FEATURE_BOUND = 6e10`).
+pub const FEATURE_BOUND: f32 = 1.0e4;
+
+/// Largest magnitude a weight may reach. An update that would cross it is refused.
+pub const WEIGHT_BOUND: f32 = 1.0e6;
+
+/// One feature vector (one row of a [`FeatureTable`]).
+pub type Features = [f32; FEATURE_COUNT];
+
+/// The learner's weight vector: the policy is `argmax_a w · φ(s, a)`.
+pub type Weights = [f32; FEATURE_COUNT];
+
+/// The entries of a feature vector, in storage order.
+///
+/// Each feature has a *subject* a semantic statement can name ("avoid doors", "stay on the
+/// path", "keep right"); [`Feature::grows_away`] says in which direction the value moves as a
+/// trajectory goes away from its subject.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "max-size",
+    derive(postcard::experimental::max_size::MaxSize)
+)]
+#[repr(u8)]
+pub enum Feature {
+    /// Clearance to obstacles (range-scan points), summed along the trajectory.
+    Obstacles = 0,
+    /// Clearance to doors, summed along the trajectory.
+    Door = 1,
+    /// Clearance to stairs, summed along the trajectory.
+    Stairs = 2,
+    /// Clearance to chairs, summed along the trajectory.
+    Chair = 3,
+    /// Cross-track plus along-track error of the trajectory's end against the path reference.
+    Path = 4,
+    /// Lateral displacement of the trajectory's end, right positive.
+    Right = 5,
+}
+
+impl Feature {
+    /// All features in storage order.
+    pub const ALL: [Feature; FEATURE_COUNT] = [
+        Feature::Obstacles,
+        Feature::Door,
+        Feature::Stairs,
+        Feature::Chair,
+        Feature::Path,
+        Feature::Right,
+    ];
+
+    /// Position of this feature in a [`Features`] vector.
+    #[inline]
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The feature stored at `index`.
+    pub const fn from_index(index: usize) -> Option<Self> {
+        if index < FEATURE_COUNT {
+            Some(Self::ALL[index])
+        } else {
+            None
+        }
+    }
+
+    /// Whether the value grows as a trajectory moves away from the feature's subject.
+    ///
+    /// True for the clearances and the path error; false for [`Feature::Right`], which grows
+    /// *towards* its subject, the right-hand side.
+    #[inline]
+    pub const fn grows_away(self) -> bool {
+        !matches!(self, Feature::Right)
+    }
+
+    /// A short lower-case name ("obstacles", "door", ...), for logs and CSV headers.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Feature::Obstacles => "obstacles",
+            Feature::Door => "door",
+            Feature::Stairs => "stairs",
+            Feature::Chair => "chair",
+            Feature::Path => "path",
+            Feature::Right => "right",
+        }
+    }
+}
+
+impl fmt::Display for Feature {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// `a · b`, summed from index 0 upwards.
+///
+/// The order is part of the contract: it is what makes the host and the Cortex-M4F produce
+/// bit-identical scores (no fused multiply-add, no reassociation).
+#[inline]
+pub fn dot(a: &Features, b: &Features) -> f32 {
+    let mut s = 0.0f32;
+    for i in 0..FEATURE_COUNT {
+        s += a[i] * b[i];
+    }
+    s
+}
+
+/// Whether every entry is finite with magnitude at most `bound`.
+#[inline]
+pub(crate) fn within(v: &Features, bound: f32) -> bool {
+    v.iter().all(|x| x.is_finite() && x.abs() <= bound)
+}
+
+/// Why a feature table was refused.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum FeatureError {
+    /// An entry of an allowed action's row is NaN or infinite.
+    NotFinite {
+        /// The action whose row holds the entry.
+        action: ActionIndex,
+    },
+    /// An entry of an allowed action's row exceeds [`FEATURE_BOUND`] in magnitude.
+    OutOfBounds {
+        /// The action whose row holds the entry.
+        action: ActionIndex,
+    },
+}
+
+impl fmt::Display for FeatureError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FeatureError::NotFinite { action } => {
+                write!(f, "features of action {action} are not finite")
+            }
+            FeatureError::OutOfBounds { action } => {
+                write!(f, "features of action {action} exceed {FEATURE_BOUND}")
+            }
+        }
+    }
+}
+
+impl core::error::Error for FeatureError {}
+
+/// The features of every action for one tick: `MAX_ACTIONS × FEATURE_COUNT` `f32`s (1.5 KiB).
+#[derive(Clone, PartialEq, Debug)]
+pub struct FeatureTable {
+    rows: [Features; MAX_ACTIONS],
+}
+
+impl FeatureTable {
+    /// A table of zeros.
+    pub const ZERO: Self = Self {
+        rows: [[0.0; FEATURE_COUNT]; MAX_ACTIONS],
+    };
+
+    /// A table from its rows.
+    pub const fn from_rows(rows: [Features; MAX_ACTIONS]) -> Self {
+        Self { rows }
+    }
+
+    /// All rows, indexed by action.
+    #[inline]
+    pub const fn rows(&self) -> &[Features; MAX_ACTIONS] {
+        &self.rows
+    }
+
+    /// All rows, mutable.
+    #[inline]
+    pub fn rows_mut(&mut self) -> &mut [Features; MAX_ACTIONS] {
+        &mut self.rows
+    }
+
+    /// Checks the rows of the allowed actions: finite, magnitude at most [`FEATURE_BOUND`].
+    /// Rows of forbidden actions are never read by the learner and are not checked.
+    pub fn check(&self, allowed: ActionMask) -> Result<(), FeatureError> {
+        for a in allowed {
+            let row = &self.rows[a.get()];
+            if row.iter().any(|x| !x.is_finite()) {
+                return Err(FeatureError::NotFinite { action: a });
+            }
+            if !within(row, FEATURE_BOUND) {
+                return Err(FeatureError::OutOfBounds { action: a });
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Default for FeatureTable {
+    fn default() -> Self {
+        Self::ZERO
+    }
+}
+
+impl Index<ActionIndex> for FeatureTable {
+    type Output = Features;
+    #[inline]
+    fn index(&self, a: ActionIndex) -> &Features {
+        &self.rows[a.get()]
+    }
+}
+
+impl IndexMut<ActionIndex> for FeatureTable {
+    #[inline]
+    fn index_mut(&mut self, a: ActionIndex) -> &mut Features {
+        &mut self.rows[a.get()]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layout_is_stable() {
+        for (i, f) in Feature::ALL.iter().enumerate() {
+            assert_eq!(f.index(), i);
+            assert_eq!(Feature::from_index(i), Some(*f));
+        }
+        assert_eq!(Feature::from_index(FEATURE_COUNT), None);
+    }
+
+    #[test]
+    fn check_rejects_bad_rows_of_allowed_actions_only() {
+        let mut t = FeatureTable::ZERO;
+        let a = ActionIndex::new(5).unwrap();
+        t[a][2] = f32::NAN;
+        assert_eq!(
+            t.check(ActionMask::ALL),
+            Err(FeatureError::NotFinite { action: a })
+        );
+        let mut others = ActionMask::ALL;
+        others.remove(a);
+        assert_eq!(t.check(others), Ok(()));
+        t[a][2] = 2.0e4;
+        assert_eq!(
+            t.check(ActionMask::ALL),
+            Err(FeatureError::OutOfBounds { action: a })
+        );
+        t[a][2] = -FEATURE_BOUND;
+        assert_eq!(t.check(ActionMask::ALL), Ok(()));
+    }
+}

@@ -1,0 +1,432 @@
+//! Feedback and the pseudo-losses it becomes.
+//!
+//! A correction from the teacher is turned into a *pseudo-loss* `Δ(s, ·)` over the actions of
+//! the round it refers to (paper, sections 5 and 6; DESIGN section 4). Every pseudo-loss is
+//! shifted so that its minimum over the allowed actions is 0; `â = argmin Δ` is the action the
+//! feedback points to.
+//!
+//! | feedback | `Δ(a)` before the shift |
+//! |---|---|
+//! | [`ActionFeedback`] (the teacher's action `a*`) | 0 for `a*`, [`WRONG_ACTION_LOSS`] for every other action |
+//! | [`PreferenceFeedback`] (`a_p` preferred over `a_np`) | `‖φ_p − φ_a‖ − ‖φ_np − φ_a‖` |
+//! | [`SemanticFeedback`] (statements such as "avoid doors") | per statement: 0 for an action that does strictly better than the learner's choice on the statement's feature, [`SEMANTIC_LOSS`] otherwise; statements add up |
+//!
+//! No correction means no pseudo-loss and no update: there is nothing to call.
+//!
+//! New kinds of feedback slot in beside these by implementing [`PseudoLossSource`]; everything
+//! downstream (surrogate, learners) sees only the [`PseudoLoss`].
+//!
+//! ```
+//! use firmware_core::{ActionFeedback, ActionIndex, ActionMask, FeatureTable, Round, pseudo_loss};
+//!
+//! let table = FeatureTable::ZERO;
+//! let chosen = ActionIndex::new(0).unwrap();
+//! let round = Round::new(&table, ActionMask::ALL, chosen).unwrap();
+//! let teacher = ActionFeedback { action: ActionIndex::new(9).unwrap() };
+//! let delta = pseudo_loss(&teacher, &round).unwrap();
+//! assert_eq!(delta[ActionIndex::new(9).unwrap()], 0.0);
+//! assert_eq!(delta[chosen], 100.0);
+//! ```
+
+use core::ops::Index;
+
+use serde::{Deserialize, Serialize};
+
+use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
+use crate::error::LearnError;
+use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
+
+/// `Δ` of every action but the teacher's, for action feedback (the paper's value).
+pub const WRONG_ACTION_LOSS: f32 = 100.0;
+
+/// `Δ` of an action that does not beat the learner's choice on a statement's feature.
+pub const SEMANTIC_LOSS: f32 = 100.0;
+
+/// Largest magnitude a pseudo-loss entry may have before the shift.
+pub const PSEUDO_LOSS_BOUND: f32 = 1.0e6;
+
+/// The learner's side of one round: the features of the tick, the allowed actions and the action
+/// the learner chose. Feedback is always judged against a round.
+#[derive(Clone, Copy, Debug)]
+pub struct Round<'a> {
+    features: &'a FeatureTable,
+    allowed: ActionMask,
+    chosen: ActionIndex,
+}
+
+impl<'a> Round<'a> {
+    /// Checks and builds a round: at least one allowed action, `chosen` allowed, and the features
+    /// of the allowed actions finite and within [`crate::FEATURE_BOUND`].
+    pub fn new(
+        features: &'a FeatureTable,
+        allowed: ActionMask,
+        chosen: ActionIndex,
+    ) -> Result<Self, LearnError> {
+        if allowed.is_empty() {
+            return Err(LearnError::NoAllowedAction);
+        }
+        if !allowed.contains(chosen) {
+            return Err(LearnError::ActionNotAllowed(chosen));
+        }
+        features.check(allowed)?;
+        Ok(Self {
+            features,
+            allowed,
+            chosen,
+        })
+    }
+
+    /// The features of every action.
+    #[inline]
+    pub fn features(&self) -> &'a FeatureTable {
+        self.features
+    }
+
+    /// The allowed actions.
+    #[inline]
+    pub fn allowed(&self) -> ActionMask {
+        self.allowed
+    }
+
+    /// The action the learner chose.
+    #[inline]
+    pub fn chosen(&self) -> ActionIndex {
+        self.chosen
+    }
+
+    /// `φ(s, a)`.
+    #[inline]
+    pub fn phi(&self, a: ActionIndex) -> &'a Features {
+        &self.features[a]
+    }
+
+    fn require_allowed(&self, a: ActionIndex) -> Result<(), LearnError> {
+        if self.allowed.contains(a) {
+            Ok(())
+        } else {
+            Err(LearnError::ActionNotAllowed(a))
+        }
+    }
+}
+
+/// A pseudo-loss `Δ(s, ·)`: finite, at least 0 on every allowed action and 0 on at least one.
+/// Entries of forbidden actions are 0 and never read.
+#[derive(Clone, PartialEq, Debug)]
+pub struct PseudoLoss {
+    values: [f32; MAX_ACTIONS],
+}
+
+impl PseudoLoss {
+    /// Checks raw values over the allowed actions and shifts them so that their minimum is 0.
+    pub fn from_raw(
+        mut values: [f32; MAX_ACTIONS],
+        allowed: ActionMask,
+    ) -> Result<Self, LearnError> {
+        let mut min = f32::INFINITY;
+        for a in allowed {
+            let v = values[a.get()];
+            if !v.is_finite() || v.abs() > PSEUDO_LOSS_BOUND {
+                return Err(LearnError::BadPseudoLoss);
+            }
+            if v < min {
+                min = v;
+            }
+        }
+        if allowed.is_empty() {
+            return Err(LearnError::NoAllowedAction);
+        }
+        for (i, v) in values.iter_mut().enumerate() {
+            // `i < MAX_ACTIONS` by construction of the array.
+            let allowed_here = ActionIndex::new(i).is_some_and(|a| allowed.contains(a));
+            *v = if allowed_here { *v - min } else { 0.0 };
+        }
+        Ok(Self { values })
+    }
+
+    /// All entries, indexed by action.
+    #[inline]
+    pub fn values(&self) -> &[f32; MAX_ACTIONS] {
+        &self.values
+    }
+}
+
+impl Index<ActionIndex> for PseudoLoss {
+    type Output = f32;
+    #[inline]
+    fn index(&self, a: ActionIndex) -> &f32 {
+        &self.values[a.get()]
+    }
+}
+
+/// Anything that becomes a pseudo-loss over a round's actions.
+///
+/// Implement this to add a kind of feedback. Write the *unshifted* `Δ` of every allowed action;
+/// [`pseudo_loss`] checks and shifts it.
+pub trait PseudoLossSource {
+    /// Writes `Δ(s, a)` for every allowed action `a` of `round` into `out`.
+    fn write_pseudo_loss(
+        &self,
+        round: &Round<'_>,
+        out: &mut [f32; MAX_ACTIONS],
+    ) -> Result<(), LearnError>;
+}
+
+/// The shifted pseudo-loss of `source` for `round`.
+pub fn pseudo_loss<S: PseudoLossSource + ?Sized>(
+    source: &S,
+    round: &Round<'_>,
+) -> Result<PseudoLoss, LearnError> {
+    let mut raw = [0.0f32; MAX_ACTIONS];
+    source.write_pseudo_loss(round, &mut raw)?;
+    PseudoLoss::from_raw(raw, round.allowed())
+}
+
+/// The teacher names the action it wanted.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "max-size",
+    derive(postcard::experimental::max_size::MaxSize)
+)]
+pub struct ActionFeedback {
+    /// The teacher's action.
+    pub action: ActionIndex,
+}
+
+impl PseudoLossSource for ActionFeedback {
+    fn write_pseudo_loss(
+        &self,
+        round: &Round<'_>,
+        out: &mut [f32; MAX_ACTIONS],
+    ) -> Result<(), LearnError> {
+        round.require_allowed(self.action)?;
+        for a in round.allowed() {
+            out[a.get()] = if a == self.action {
+                0.0
+            } else {
+                WRONG_ACTION_LOSS
+            };
+        }
+        Ok(())
+    }
+}
+
+/// The teacher, shown two actions, prefers one.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "max-size",
+    derive(postcard::experimental::max_size::MaxSize)
+)]
+pub struct PreferenceFeedback {
+    /// The action the teacher prefers.
+    pub preferred: ActionIndex,
+    /// The action the teacher does not prefer.
+    pub other: ActionIndex,
+}
+
+/// Euclidean distance `‖x − y‖`, summed from index 0.
+#[inline]
+pub(crate) fn distance(x: &Features, y: &Features) -> f32 {
+    let mut s = 0.0f32;
+    for i in 0..FEATURE_COUNT {
+        let d = x[i] - y[i];
+        s += d * d;
+    }
+    libm::sqrtf(s)
+}
+
+impl PseudoLossSource for PreferenceFeedback {
+    fn write_pseudo_loss(
+        &self,
+        round: &Round<'_>,
+        out: &mut [f32; MAX_ACTIONS],
+    ) -> Result<(), LearnError> {
+        if self.preferred == self.other {
+            return Err(LearnError::DegenerateFeedback);
+        }
+        round.require_allowed(self.preferred)?;
+        round.require_allowed(self.other)?;
+        let p = round.phi(self.preferred);
+        let np = round.phi(self.other);
+        for a in round.allowed() {
+            let phi = round.phi(a);
+            out[a.get()] = distance(p, phi) - distance(np, phi);
+        }
+        Ok(())
+    }
+}
+
+/// Whether a statement asks to keep away from its subject or to seek it.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "max-size",
+    derive(postcard::experimental::max_size::MaxSize)
+)]
+pub enum Polarity {
+    /// "Avoid doors", "keep away from the stairs".
+    Avoid,
+    /// "Stay on the path", "keep right".
+    Prefer,
+}
+
+/// One spoken rule: a polarity about a feature's subject.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+pub struct Statement {
+    /// The feature whose subject the statement names.
+    pub subject: Feature,
+    /// Avoid or prefer that subject.
+    pub polarity: Polarity,
+}
+
+impl Statement {
+    /// Whether the statement is satisfied better by a *higher* value of its feature.
+    #[inline]
+    pub const fn wants_higher(self) -> bool {
+        matches!(self.polarity, Polarity::Avoid) == self.subject.grows_away()
+    }
+}
+
+/// Semantic feedback: up to one statement per feature ("avoid doors", "stay on the path", ...).
+///
+/// ```
+/// use firmware_core::{Feature, SemanticFeedback};
+/// let said = SemanticFeedback::new().avoid(Feature::Door).prefer(Feature::Path);
+/// assert_eq!(said.len(), 2);
+/// ```
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "max-size",
+    derive(postcard::experimental::max_size::MaxSize)
+)]
+pub struct SemanticFeedback {
+    polarity: [Option<Polarity>; FEATURE_COUNT],
+}
+
+impl SemanticFeedback {
+    /// No statement yet.
+    pub const fn new() -> Self {
+        Self {
+            polarity: [None; FEATURE_COUNT],
+        }
+    }
+
+    /// Adds (or replaces) the statement about `statement.subject`.
+    pub const fn with(mut self, statement: Statement) -> Self {
+        self.polarity[statement.subject.index()] = Some(statement.polarity);
+        self
+    }
+
+    /// Adds "avoid `subject`".
+    pub const fn avoid(self, subject: Feature) -> Self {
+        self.with(Statement {
+            subject,
+            polarity: Polarity::Avoid,
+        })
+    }
+
+    /// Adds "prefer `subject`".
+    pub const fn prefer(self, subject: Feature) -> Self {
+        self.with(Statement {
+            subject,
+            polarity: Polarity::Prefer,
+        })
+    }
+
+    /// The statement about `subject`, if any.
+    pub const fn get(&self, subject: Feature) -> Option<Polarity> {
+        self.polarity[subject.index()]
+    }
+
+    /// The statements, in feature order.
+    pub fn statements(&self) -> impl Iterator<Item = Statement> + '_ {
+        Feature::ALL
+            .iter()
+            .zip(self.polarity.iter())
+            .filter_map(|(&subject, p)| p.map(|polarity| Statement { subject, polarity }))
+    }
+
+    /// Number of statements.
+    pub fn len(&self) -> usize {
+        self.polarity.iter().filter(|p| p.is_some()).count()
+    }
+
+    /// Whether there is no statement.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+impl PseudoLossSource for SemanticFeedback {
+    fn write_pseudo_loss(
+        &self,
+        round: &Round<'_>,
+        out: &mut [f32; MAX_ACTIONS],
+    ) -> Result<(), LearnError> {
+        if self.is_empty() {
+            return Err(LearnError::DegenerateFeedback);
+        }
+        let chosen = round.phi(round.chosen());
+        for a in round.allowed() {
+            out[a.get()] = 0.0;
+        }
+        for s in self.statements() {
+            let f = s.subject.index();
+            let reference = chosen[f];
+            let higher = s.wants_higher();
+            for a in round.allowed() {
+                let v = round.phi(a)[f];
+                let better = if higher { v > reference } else { v < reference };
+                if !better {
+                    out[a.get()] += SEMANTIC_LOSS;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Every kind of feedback the learner takes.
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize)]
+#[cfg_attr(
+    feature = "max-size",
+    derive(postcard::experimental::max_size::MaxSize)
+)]
+pub enum Feedback {
+    /// The action the teacher wanted.
+    Action(ActionFeedback),
+    /// A choice between two actions.
+    Preference(PreferenceFeedback),
+    /// Spoken rules.
+    Semantic(SemanticFeedback),
+}
+
+impl PseudoLossSource for Feedback {
+    fn write_pseudo_loss(
+        &self,
+        round: &Round<'_>,
+        out: &mut [f32; MAX_ACTIONS],
+    ) -> Result<(), LearnError> {
+        match self {
+            Feedback::Action(f) => f.write_pseudo_loss(round, out),
+            Feedback::Preference(f) => f.write_pseudo_loss(round, out),
+            Feedback::Semantic(f) => f.write_pseudo_loss(round, out),
+        }
+    }
+}
+
+impl From<ActionFeedback> for Feedback {
+    fn from(f: ActionFeedback) -> Self {
+        Feedback::Action(f)
+    }
+}
+
+impl From<PreferenceFeedback> for Feedback {
+    fn from(f: PreferenceFeedback) -> Self {
+        Feedback::Preference(f)
+    }
+}
+
+impl From<SemanticFeedback> for Feedback {
+    fn from(f: SemanticFeedback) -> Self {
+        Feedback::Semantic(f)
+    }
+}

@@ -1,0 +1,100 @@
+//! # firmware-core: learning online from corrective feedback, on a microcontroller
+//!
+//! The learner of *Learning Online from Corrective Feedback: A Meta-Algorithm for Robotics*
+//! (Schmittle, Choudhury, Srinivasa, CoRL 2020) for a MuSHR-class racecar, written to run on the
+//! car's own Cortex-M4F: `no_std`, no heap (there is no `alloc` in this crate, so a `Vec` or a
+//! `Box` does not compile), no `unsafe`, fixed-size buffers, `f32` arithmetic.
+//!
+//! ## What happens in one control tick
+//!
+//! ```text
+//!  observation ──evaluate──▶ φ[64][F] + mask ──policy──▶ a_t = argmax_a w·φ(a)
+//!                                                              │
+//!  teacher corrects? ── no ──▶ nothing changes                 ▼
+//!        │ yes                                        the car tracks a_t
+//!        ▼
+//!  feedback ──▶ pseudo-loss Δ[64] ──▶ surrogate ℓ(w), subgradient g ──▶ learner step
+//! ```
+//!
+//! * [`feature`]: the feature layout φ(s, a) ∈ R^[`FEATURE_COUNT`] and the per-tick
+//!   [`FeatureTable`] of all [`MAX_ACTIONS`] actions.
+//! * [`policy`]: `argmax_a w·φ(s, a)` over the actions an [`ActionMask`] allows, ties to the
+//!   lowest index.
+//! * [`feedback`]: what the teacher says (the action it wanted, a preference between two actions,
+//!   spoken rules) and the [`PseudoLoss`] each becomes.
+//! * [`surrogate`]: the generalized hinge (and the perceptron loss) over a pseudo-loss: value and
+//!   subgradient.
+//! * [`learner`]: online learners behind [`OnlineLearner`] (OGD constant and `1/√t`, averaged OGD,
+//!   diagonal AdaGrad, the Coactive perceptron, optional L2-ball projection), checked parameters,
+//!   and versioned snapshots.
+//!
+//! ## Sign convention
+//!
+//! The policy maximises `w·φ`. The teacher's latent loss of action `a` is
+//! `L(a) = w*·(φ(a*) − φ(a)) ≥ 0`, `a* = argmax w*·φ`. Surrogates are minimised in `w`; the
+//! generalized hinge's subgradient is `φ_sel − φ_â` and OGD steps `w ← w + η(φ_â − φ_sel)`,
+//! which is the paper's rule (the paper writes the opposite sign because its policy is an
+//! argmin). See [`surrogate`].
+//!
+//! ## The default learner and why
+//!
+//! [`LearnerParams::default`] is constant-step OGD acting on its averaged iterate (η = 0.01).
+//! The paper's plain OGD is [`LearnerParams::paper`]. On a noiseless teacher both learn at the
+//! same rate; with 20% of the teacher's answers replaced by random actions, plain OGD's last
+//! iterate keeps being thrown off by each wrong answer while the average settles (measured in
+//! `tests/learning.rs`).
+//!
+//! ## Bad input
+//!
+//! Nothing from outside is trusted: features must be finite and within [`FEATURE_BOUND`], pseudo-
+//! losses within [`PSEUDO_LOSS_BOUND`], subgradients within [`GRADIENT_BOUND`], and no step may
+//! take a weight beyond [`WEIGHT_BOUND`]. A refused call returns a small `Copy` error
+//! ([`LearnError`], [`UpdateError`], [`ParamError`], [`SnapshotError`]) and changes nothing, so
+//! the weights are always finite.
+//!
+//! ## Determinism
+//!
+//! Every sum runs in index order, no fused multiply-add is used, and square roots go through
+//! `libm` (correctly rounded), so the host and the Cortex-M4F compute bit-identical weights from
+//! the same inputs. The crate reads no clock and draws no random number: time and randomness
+//! belong to the caller.
+//!
+//! ## Memory
+//!
+//! A [`FeatureTable`] is 1.5 KiB, a [`PseudoLoss`] 256 B, a [`Learner`] under 100 B. Nothing is
+//! allocated; everything lives on the caller's stack or in its statics.
+//!
+//! ## Cargo features
+//!
+//! * `max-size`: derive postcard's `MaxSize` for the types that travel on the wire (used by the
+//!   `protocol` crate to bound message sizes at compile time).
+
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+
+pub mod action;
+pub mod error;
+pub mod feature;
+pub mod feedback;
+pub mod learner;
+pub mod policy;
+pub mod surrogate;
+
+pub use action::{ActionIndex, ActionMask, ActionOutOfRange, MAX_ACTIONS};
+pub use error::{LearnError, ParamError, SnapshotError, UpdateError};
+pub use feature::{
+    FEATURE_BOUND, FEATURE_COUNT, Feature, FeatureError, FeatureTable, Features, WEIGHT_BOUND,
+    Weights, dot,
+};
+pub use feedback::{
+    ActionFeedback, Feedback, PSEUDO_LOSS_BOUND, Polarity, PreferenceFeedback, PseudoLoss,
+    PseudoLossSource, Round, SEMANTIC_LOSS, SemanticFeedback, Statement, WRONG_ACTION_LOSS,
+    pseudo_loss,
+};
+pub use learner::{
+    AdaGrad, AveragedOgd, Coactive, GRADIENT_BOUND, Learner, LearnerKind, LearnerParams,
+    LearnerSnapshot, LearnerState, MAX_STEP, Ogd, OnlineLearner, Outcome, PAPER_STEP,
+    SNAPSHOT_VERSION, ValidLearnerParams, learn, learn_from_loss,
+};
+pub use surrogate::{Surrogate, SurrogateEval};
