@@ -1,0 +1,93 @@
+//! `cargo bench -p firmware-core --bench learner`: the policy's select over 64 actions and one
+//! learning step (pseudo-loss + surrogate + update) per feedback kind and learner.
+
+use std::hint::black_box;
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use firmware_core::{
+    ActionFeedback, ActionIndex, ActionMask, Feature, FeatureTable, Feedback, Learner, LearnerKind,
+    LearnerParams, OnlineLearner, PreferenceFeedback, Round, SemanticFeedback, policy,
+};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+fn table(seed: u64) -> FeatureTable {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut t = FeatureTable::ZERO;
+    for row in t.rows_mut() {
+        for x in row.iter_mut() {
+            *x = rng.random_range(-1.0f32..1.0);
+        }
+    }
+    t
+}
+
+fn bench_select(c: &mut Criterion) {
+    let t = table(1);
+    let w = [0.3, -0.2, 0.9, 0.1, -0.7, 0.4];
+    let mut group = c.benchmark_group("select");
+    for allowed in [64u32, 32, 8] {
+        let mask = ActionMask::from_bits(if allowed == 64 {
+            u64::MAX
+        } else {
+            (1u64 << allowed) - 1
+        });
+        group.bench_with_input(BenchmarkId::from_parameter(allowed), &mask, |b, &mask| {
+            b.iter(|| policy::select(black_box(&w), black_box(&t), black_box(mask)))
+        });
+    }
+    group.finish();
+}
+
+fn bench_update(c: &mut Criterion) {
+    let t = table(2);
+    let a = |i| ActionIndex::new(i).unwrap();
+    let feedbacks: [(&str, Feedback); 3] = [
+        ("action", ActionFeedback { action: a(17) }.into()),
+        (
+            "preference",
+            PreferenceFeedback {
+                preferred: a(17),
+                other: a(40),
+            }
+            .into(),
+        ),
+        (
+            "semantic",
+            SemanticFeedback::new()
+                .avoid(Feature::Door)
+                .prefer(Feature::Path)
+                .into(),
+        ),
+    ];
+    let mut group = c.benchmark_group("update");
+    for kind in [
+        LearnerKind::Ogd,
+        LearnerKind::AveragedOgd,
+        LearnerKind::AdaGrad,
+    ] {
+        for (name, fb) in &feedbacks {
+            let learner = Learner::new(
+                LearnerParams::new(kind)
+                    .with_initial([0.1; 6])
+                    .check()
+                    .unwrap(),
+            );
+            let chosen = learner.select(&t, ActionMask::ALL).unwrap();
+            group.bench_function(BenchmarkId::new(kind.name(), name), |b| {
+                b.iter_batched_ref(
+                    || learner,
+                    |l| {
+                        let round = Round::new(black_box(&t), ActionMask::ALL, chosen).unwrap();
+                        l.learn(&round, black_box(fb)).unwrap()
+                    },
+                    criterion::BatchSize::SmallInput,
+                )
+            });
+        }
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_select, bench_update);
+criterion_main!(benches);

@@ -1,0 +1,290 @@
+//! Hand-computed cases of every pseudo-loss, of both surrogates and of one step of every learner,
+//! from the paper's formulas (sections 5 and 6). The expected numbers are worked out in f64 in
+//! the comments and compared with a tolerance where a square root is involved.
+
+use firmware_core::{
+    ActionFeedback, ActionIndex, ActionMask, FEATURE_COUNT, Feature, FeatureTable, LearnError,
+    Learner, LearnerKind, LearnerParams, OnlineLearner, PreferenceFeedback, Round,
+    SemanticFeedback, learn, pseudo_loss, surrogate,
+};
+
+fn a(i: usize) -> ActionIndex {
+    ActionIndex::new(i).unwrap()
+}
+
+/// Three allowed actions (0, 1, 2) and one forbidden (3) whose features are absurd on purpose:
+/// they must never be read.
+///
+/// φ0 = (1, 0, 0, 0, 0, 0), φ1 = (0, 2, 0, 0, 0, 0), φ2 = (0, 0, 0, 0, 3, 4).
+fn scene() -> (FeatureTable, ActionMask) {
+    let mut t = FeatureTable::ZERO;
+    t[a(0)] = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    t[a(1)] = [0.0, 2.0, 0.0, 0.0, 0.0, 0.0];
+    t[a(2)] = [0.0, 0.0, 0.0, 0.0, 3.0, 4.0];
+    t[a(3)] = [f32::NAN; FEATURE_COUNT];
+    let mask: ActionMask = [a(0), a(1), a(2)].into_iter().collect();
+    (t, mask)
+}
+
+fn close(x: f32, y: f64) -> bool {
+    (x as f64 - y).abs() < 1e-5
+}
+
+#[test]
+fn action_feedback_is_zero_for_the_teacher_and_100_elsewhere() {
+    let (t, m) = scene();
+    let round = Round::new(&t, m, a(1)).unwrap();
+    let d = pseudo_loss(&ActionFeedback { action: a(2) }, &round).unwrap();
+    assert_eq!(&d.values()[..4], &[100.0, 100.0, 0.0, 0.0]);
+}
+
+#[test]
+fn preference_feedback_follows_the_norm_difference_shifted_to_zero() {
+    // Δ(a) = ‖φ_p − φ_a‖ − ‖φ_np − φ_a‖ with p = 1, np = 2:
+    //   Δ0 = √5 − √26, Δ1 = 0 − √29, Δ2 = √29 − 0; min = −√29, so after the shift
+    //   Δ0 = √5 − √26 + √29, Δ1 = 0, Δ2 = 2√29.
+    let (t, m) = scene();
+    let round = Round::new(&t, m, a(0)).unwrap();
+    let d = pseudo_loss(
+        &PreferenceFeedback {
+            preferred: a(1),
+            other: a(2),
+        },
+        &round,
+    )
+    .unwrap();
+    let (s5, s26, s29) = (5f64.sqrt(), 26f64.sqrt(), 29f64.sqrt());
+    assert!(close(d[a(0)], s5 - s26 + s29), "{}", d[a(0)]);
+    assert_eq!(d[a(1)], 0.0);
+    assert!(close(d[a(2)], 2.0 * s29), "{}", d[a(2)]);
+    assert_eq!(d[a(3)], 0.0, "forbidden entries stay 0");
+}
+
+#[test]
+fn semantic_statements_add_up() {
+    // Chosen a0. "Avoid doors": door clearance higher than φ0's 0 is better → a1 gets 0,
+    // a0 and a2 get 100. "Stay on the path": path error below φ0's 0 → nobody; all 100.
+    // Sum (200, 100, 200) → shifted (100, 0, 100).
+    let (t, m) = scene();
+    let round = Round::new(&t, m, a(0)).unwrap();
+    let said = SemanticFeedback::new()
+        .avoid(Feature::Door)
+        .prefer(Feature::Path);
+    let d = pseudo_loss(&said, &round).unwrap();
+    assert_eq!(&d.values()[..3], &[100.0, 0.0, 100.0]);
+
+    // "Keep right" (prefer Right): a higher right offset is better → a2 (4 > 0).
+    let d = pseudo_loss(&SemanticFeedback::new().prefer(Feature::Right), &round).unwrap();
+    assert_eq!(&d.values()[..3], &[100.0, 100.0, 0.0]);
+    // "Avoid the right" is "keep left": lower is better → nobody beats 0 → flat.
+    let d = pseudo_loss(&SemanticFeedback::new().avoid(Feature::Right), &round).unwrap();
+    assert_eq!(&d.values()[..3], &[0.0, 0.0, 0.0]);
+    // Approaching the path error's subject: "avoid the path" wants a higher error → a2.
+    let d = pseudo_loss(&SemanticFeedback::new().avoid(Feature::Path), &round).unwrap();
+    assert_eq!(&d.values()[..3], &[100.0, 100.0, 0.0]);
+}
+
+#[test]
+fn bad_feedback_is_refused() {
+    let (t, m) = scene();
+    let round = Round::new(&t, m, a(0)).unwrap();
+    assert_eq!(
+        pseudo_loss(&ActionFeedback { action: a(3) }, &round),
+        Err(LearnError::ActionNotAllowed(a(3)))
+    );
+    assert_eq!(
+        pseudo_loss(
+            &PreferenceFeedback {
+                preferred: a(1),
+                other: a(1)
+            },
+            &round
+        ),
+        Err(LearnError::DegenerateFeedback)
+    );
+    assert_eq!(
+        pseudo_loss(&SemanticFeedback::new(), &round),
+        Err(LearnError::DegenerateFeedback)
+    );
+    assert_eq!(
+        Round::new(&t, m, a(3)).err(),
+        Some(LearnError::ActionNotAllowed(a(3)))
+    );
+    assert_eq!(
+        Round::new(&t, ActionMask::NONE, a(0)).err(),
+        Some(LearnError::NoAllowedAction)
+    );
+    assert!(matches!(
+        Round::new(&t, ActionMask::ALL, a(0)),
+        Err(LearnError::Features(_))
+    ));
+}
+
+#[test]
+fn generalized_hinge_matches_the_paper() {
+    // w = (1, 1, 0, 0, 0, 0): scores s = (1, 2, 0); the learner chose a1.
+    // Action feedback a2: Δ = (100, 100, 0), â = a2,
+    // ℓ = max(100 + 1 − 0, 100 + 2 − 0, 0) = 102 ≥ Δ(a_t) = 100, a_sel = a1,
+    // g = φ1 − φ2 = (0, 2, 0, 0, −3, −4).
+    let (t, m) = scene();
+    let w = [1.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+    let round = Round::new(&t, m, a(1)).unwrap();
+    let d = pseudo_loss(&ActionFeedback { action: a(2) }, &round).unwrap();
+    let e = surrogate::generalized_hinge(&w, &round, &d);
+    assert_eq!(e.value, 102.0);
+    assert!(e.value >= d[round.chosen()]);
+    assert_eq!((e.target, e.maximiser), (a(2), a(1)));
+    assert_eq!(e.subgradient, [0.0, 2.0, 0.0, 0.0, -3.0, -4.0]);
+
+    // Preference a1 over a2: Δ = (√5 − √26 + √29, 0, 2√29), â = a1,
+    // ℓ = max(Δ0 + 1 − 2, 0, Δ2 + 0 − 2) = 2√29 − 2 ≈ 8.7703, a_sel = a2, g = φ2 − φ1.
+    let d = pseudo_loss(
+        &PreferenceFeedback {
+            preferred: a(1),
+            other: a(2),
+        },
+        &round,
+    )
+    .unwrap();
+    let e = surrogate::generalized_hinge(&w, &round, &d);
+    assert!(close(e.value, 2.0 * 29f64.sqrt() - 2.0), "{}", e.value);
+    assert_eq!((e.target, e.maximiser), (a(1), a(2)));
+    assert_eq!(e.subgradient, [0.0, -2.0, 0.0, 0.0, 3.0, 4.0]);
+}
+
+#[test]
+fn hinge_is_zero_when_the_margins_already_hold() {
+    // w = (0, 100, 0, 0, 0, 0): s = (0, 200, 0). Action feedback a1 (the learner's own choice):
+    // ℓ = max(100 + 0 − 200, 0, 100 + 0 − 200) = 0 → flat, no step.
+    let (t, m) = scene();
+    let w = [0.0, 100.0, 0.0, 0.0, 0.0, 0.0];
+    let round = Round::new(&t, m, a(1)).unwrap();
+    let d = pseudo_loss(&ActionFeedback { action: a(1) }, &round).unwrap();
+    let e = surrogate::generalized_hinge(&w, &round, &d);
+    assert_eq!(e.value, 0.0);
+    assert!(e.is_flat());
+    assert_eq!(e.subgradient, [0.0; FEATURE_COUNT]);
+}
+
+#[test]
+fn target_ties_go_to_the_best_scored_action() {
+    // Semantic feedback flat on {a0, a2}? "Avoid doors" with chosen a1 (door 2): nobody is
+    // better → Δ ≡ 0 → â is the best-scored action, the learner's own: no update.
+    let (t, m) = scene();
+    let w = [0.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+    let round = Round::new(&t, m, a(1)).unwrap();
+    let d = pseudo_loss(&SemanticFeedback::new().avoid(Feature::Door), &round).unwrap();
+    let e = surrogate::generalized_hinge(&w, &round, &d);
+    assert_eq!(e.target, a(1));
+    assert!(e.is_flat());
+}
+
+#[test]
+fn perceptron_surrogate_is_the_coactive_update() {
+    // Chosen a1, teacher a2: g = φ1 − φ2; Coactive (η = 1): w' = w − g = w + φ2 − φ1.
+    let (t, m) = scene();
+    let mut l = Learner::new(LearnerParams::new(LearnerKind::Coactive).check().unwrap());
+    let round = Round::new(&t, m, a(1)).unwrap();
+    let out = learn(&mut l, &round, &ActionFeedback { action: a(2) }).unwrap();
+    assert!(out.stepped);
+    assert_eq!(out.eval.maximiser, a(1));
+    assert_eq!(l.weights(), &[0.0, -2.0, 0.0, 0.0, 3.0, 4.0]);
+}
+
+#[test]
+fn one_step_of_each_learner_by_hand() {
+    // From w0 = (1, 1, 0, 0, 0, 0), chosen a1, teacher a2 → g = (0, 2, 0, 0, −3, −4).
+    let (t, m) = scene();
+    let w0 = [1.0, 1.0, 0.0, 0.0, 0.0, 0.0];
+    let round = Round::new(&t, m, a(1)).unwrap();
+    let fb = ActionFeedback { action: a(2) };
+    let make =
+        |k: LearnerKind| Learner::new(LearnerParams::new(k).with_initial(w0).check().unwrap());
+
+    // OGD, η = 0.01: w = w0 − 0.01 g = (1, 0.98, 0, 0, 0.03, 0.04).
+    let mut l = make(LearnerKind::Ogd);
+    l.learn(&round, &fb).unwrap();
+    assert_eq!(
+        l.weights(),
+        &[1.0, 1.0 - 0.01 * 2.0, 0.0, 0.0, 0.01 * 3.0, 0.01 * 4.0]
+    );
+
+    // OGD with η/√t: the first step is η/√1 = η, the second η/√2.
+    let mut l = make(LearnerKind::OgdDecaying);
+    l.learn(&round, &fb).unwrap();
+    assert_eq!(l.weights(), &[1.0, 0.98, 0.0, 0.0, 0.03, 0.04]);
+    assert_eq!(l.steps(), 1);
+
+    // Averaged OGD: raw w1 = (1, 0.98, 0, 0, 0.03, 0.04), acting w̄ = (w0 + w1)/2.
+    let mut l = make(LearnerKind::AveragedOgd);
+    l.learn(&round, &fb).unwrap();
+    let avg = l.weights();
+    assert!(
+        close(avg[1], 0.99) && close(avg[4], 0.015) && close(avg[5], 0.02),
+        "{avg:?}"
+    );
+    assert_eq!(avg[0], 1.0);
+
+    // AdaGrad, η = 0.1: G = g² = (0, 4, 0, 0, 9, 16); w −= η g / (√G + ε)
+    //   → (1, 1 − 0.1, 0, 0, 0.1, 0.1) up to ε = 1e-6.
+    let mut l = make(LearnerKind::AdaGrad);
+    l.learn(&round, &fb).unwrap();
+    let w = l.weights();
+    assert!(
+        close(w[1], 0.9) && close(w[4], 0.1) && close(w[5], 0.1) && w[0] == 1.0,
+        "{w:?}"
+    );
+}
+
+#[test]
+fn no_feedback_means_no_change() {
+    // Acting many times without feedback leaves every learner exactly where it was: the crate
+    // has no per-tick state. A flat pseudo-loss (feedback that does not tell the chosen action
+    // from the best) takes no step either.
+    let (t, m) = scene();
+    for k in LearnerKind::ALL {
+        let mut l = Learner::new(
+            LearnerParams::new(k)
+                .with_initial([0.5; 6])
+                .check()
+                .unwrap(),
+        );
+        let before = l;
+        for _ in 0..100 {
+            let chosen = l.select(&t, m).unwrap();
+            assert_eq!(chosen, a(2));
+        }
+        assert_eq!(l, before);
+        let round = Round::new(&t, m, a(2)).unwrap();
+        let out = l
+            .learn(&round, &SemanticFeedback::new().prefer(Feature::Right))
+            .unwrap();
+        assert!(!out.stepped, "{k:?}");
+        assert_eq!(l, before, "{k:?}");
+    }
+}
+
+#[test]
+fn a_refused_call_changes_nothing() {
+    let (t, m) = scene();
+    let mut l = Learner::new(
+        LearnerParams::default()
+            .with_initial([0.5; 6])
+            .check()
+            .unwrap(),
+    );
+    let before = l;
+    let round = Round::new(&t, m, a(0)).unwrap();
+    assert!(l.learn(&round, &ActionFeedback { action: a(3) }).is_err());
+    assert!(
+        l.learn(
+            &round,
+            &PreferenceFeedback {
+                preferred: a(0),
+                other: a(0)
+            }
+        )
+        .is_err()
+    );
+    assert_eq!(l, before);
+}
