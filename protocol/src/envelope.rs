@@ -1,0 +1,169 @@
+//! The checked envelope: `[version: u8][postcard payload][CRC-16 little-endian]`.
+//!
+//! The CRC is CRC-16/IBM-3740 (polynomial 0x1021, initial value 0xFFFF, no reflection; also
+//! known as CRC-16/CCITT-FALSE), computed over the version byte and the payload. A receiver
+//! checks the length, then the CRC, then the version, then decodes the payload and requires it
+//! to use every byte.
+//!
+//! ```
+//! use protocol::{open, seal};
+//! let mut buf = [0u8; 16];
+//! let bytes = seal(&(7u8, -1i16), &mut buf).unwrap();
+//! assert_eq!(open::<(u8, i16)>(bytes), Ok((7, -1)));
+//! ```
+
+use core::fmt;
+
+use serde::{Deserialize, Serialize};
+
+/// The protocol version this build speaks. A frame of another version is refused.
+pub const PROTOCOL_VERSION: u8 = 1;
+
+/// Bytes the envelope adds to a payload: the version byte and the CRC.
+pub const ENVELOPE_OVERHEAD: usize = 3;
+
+/// The CRC of every envelope.
+pub const CRC16: crc::Crc<u16> = crc::Crc::<u16>::new(&crc::CRC_16_IBM_3740);
+
+/// Why an envelope could not be written or read.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
+pub enum EnvelopeError {
+    /// The output buffer is too small for the encoded value.
+    BufferTooSmall,
+    /// The input is shorter than an empty envelope.
+    Truncated,
+    /// The CRC does not match.
+    Crc,
+    /// The frame was written by another protocol version.
+    Version(u8),
+    /// The payload is not a valid encoding of the expected type.
+    Decode,
+    /// The payload decoded with bytes left over.
+    TrailingBytes,
+}
+
+impl fmt::Display for EnvelopeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            EnvelopeError::BufferTooSmall => f.write_str("buffer too small for the message"),
+            EnvelopeError::Truncated => f.write_str("frame shorter than an envelope"),
+            EnvelopeError::Crc => f.write_str("CRC mismatch"),
+            EnvelopeError::Version(v) => {
+                write!(f, "protocol version {v}, expected {PROTOCOL_VERSION}")
+            }
+            EnvelopeError::Decode => f.write_str("payload does not decode"),
+            EnvelopeError::TrailingBytes => f.write_str("payload has trailing bytes"),
+        }
+    }
+}
+
+impl core::error::Error for EnvelopeError {}
+
+/// Writes `value` into `buf` as an envelope and returns the bytes written.
+pub fn seal<'b, T: Serialize + ?Sized>(
+    value: &T,
+    buf: &'b mut [u8],
+) -> Result<&'b [u8], EnvelopeError> {
+    if buf.len() < ENVELOPE_OVERHEAD {
+        return Err(EnvelopeError::BufferTooSmall);
+    }
+    buf[0] = PROTOCOL_VERSION;
+    let payload_room = buf.len() - ENVELOPE_OVERHEAD;
+    let n = postcard::to_slice(value, &mut buf[1..1 + payload_room])
+        .map_err(|_| EnvelopeError::BufferTooSmall)?
+        .len();
+    let crc = CRC16.checksum(&buf[..1 + n]);
+    buf[1 + n..3 + n].copy_from_slice(&crc.to_le_bytes());
+    Ok(&buf[..3 + n])
+}
+
+/// Reads a value from an envelope.
+pub fn open<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Result<T, EnvelopeError> {
+    if bytes.len() < ENVELOPE_OVERHEAD {
+        return Err(EnvelopeError::Truncated);
+    }
+    let (body, crc) = bytes.split_at(bytes.len() - 2);
+    if CRC16.checksum(body).to_le_bytes() != [crc[0], crc[1]] {
+        return Err(EnvelopeError::Crc);
+    }
+    if body[0] != PROTOCOL_VERSION {
+        return Err(EnvelopeError::Version(body[0]));
+    }
+    let (value, rest) = postcard::take_from_bytes(&body[1..]).map_err(|_| EnvelopeError::Decode)?;
+    if !rest.is_empty() {
+        return Err(EnvelopeError::TrailingBytes);
+    }
+    Ok(value)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firmware_core::{ActionFeedback, ActionIndex, Feedback};
+    use proptest::prelude::*;
+
+    #[test]
+    fn golden_bytes_of_an_action_feedback() {
+        let fb = Feedback::Action(ActionFeedback {
+            action: ActionIndex::new(17).unwrap(),
+        });
+        let mut buf = [0u8; 16];
+        let bytes = seal(&fb, &mut buf).unwrap();
+        // version 1, variant 0 (Action), action 17, then the CRC.
+        let crc = CRC16.checksum(&[1, 0, 17]).to_le_bytes();
+        assert_eq!(bytes, &[1, 0, 17, crc[0], crc[1]]);
+        assert_eq!(
+            CRC16.checksum(b"123456789"),
+            0x29B1,
+            "CRC-16/IBM-3740 check value"
+        );
+    }
+
+    #[test]
+    fn every_corruption_is_caught() {
+        let fb = Feedback::Action(ActionFeedback {
+            action: ActionIndex::new(3).unwrap(),
+        });
+        let mut buf = [0u8; 16];
+        let good = seal(&fb, &mut buf).unwrap().to_vec();
+        assert_eq!(open::<Feedback>(&good), Ok(fb));
+        for i in 0..good.len() {
+            for bit in 0..8 {
+                let mut bad = good.clone();
+                bad[i] ^= 1 << bit;
+                assert!(
+                    open::<Feedback>(&bad).is_err(),
+                    "flip of byte {i} bit {bit} accepted"
+                );
+            }
+        }
+        assert_eq!(open::<Feedback>(&good[..2]), Err(EnvelopeError::Truncated));
+    }
+
+    #[test]
+    fn versions_and_sizes_are_checked() {
+        let mut buf = [0u8; 8];
+        let bytes = seal(&5u32, &mut buf).unwrap().to_vec();
+        let mut other = bytes.clone();
+        other[0] = 2;
+        let crc = CRC16.checksum(&other[..other.len() - 2]).to_le_bytes();
+        let n = other.len();
+        other[n - 2..].copy_from_slice(&crc);
+        assert_eq!(open::<u32>(&other), Err(EnvelopeError::Version(2)));
+        assert_eq!(open::<u8>(&bytes), Ok(5));
+        assert_eq!(
+            seal(&[0u8; 10], &mut buf),
+            Err(EnvelopeError::BufferTooSmall)
+        );
+        assert_eq!(open::<(u8, u8)>(&bytes), Err(EnvelopeError::Decode));
+    }
+
+    proptest! {
+        #[test]
+        fn any_bytes_give_a_value_or_an_error(bytes in proptest::collection::vec(any::<u8>(), 0..64)) {
+            let _ = open::<Feedback>(&bytes);
+            let _ = open::<firmware_core::LearnerSnapshot>(&bytes);
+        }
+    }
+}

@@ -1,0 +1,14 @@
+//! # protocol: the wire between the host and the car
+//!
+//! `no_std`, no heap, no `unsafe` (DESIGN section 7). Every message travels inside an
+//! [`envelope`]: a protocol version byte, the postcard encoding of the value, and a CRC-16 over
+//! both. Decoding is total: any byte sequence gives a value or an [`EnvelopeError`], never a
+//! panic.
+
+#![cfg_attr(not(test), no_std)]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+
+pub mod envelope;
+
+pub use envelope::{ENVELOPE_OVERHEAD, EnvelopeError, PROTOCOL_VERSION, open, seal};
