@@ -1,0 +1,292 @@
+//! Two flash pages in a file, holding the learner's snapshot.
+//!
+//! The car keeps its weights in two pages of flash and writes them alternately: a write always
+//! goes to the page that does *not* hold the newest good snapshot, so a write torn by a reset or
+//! a corrupted page never loses the last good weights. On start the newest page that passes every
+//! check wins.
+//!
+//! Page layout, little-endian, [`PAGE_SIZE`] bytes, erased bytes are `0xFF`:
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 0..4 | magic `b"CFW1"` |
+//! | 4..8 | generation `u32`, one more than the previous write's |
+//! | 8..10 | payload length `n` |
+//! | 10..10+n | the payload: a protocol envelope (version, postcard, CRC-16) of a [`LearnerSnapshot`] |
+//! | 10+n..14+n | CRC-32/ISO-HDLC of bytes 0..10+n |
+//!
+//! A page is good when the magic, the length, both CRCs, the envelope's version and the
+//! snapshot's own checks ([`Learner::restore`]) all pass.
+
+use std::fs::{File, OpenOptions};
+use std::io::{Read, Seek, SeekFrom, Write};
+use std::path::{Path, PathBuf};
+
+use firmware_core::{Learner, LearnerSnapshot};
+
+/// Size of one page.
+pub const PAGE_SIZE: usize = 256;
+
+const MAGIC: [u8; 4] = *b"CFW1";
+const HEADER: usize = 10;
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+const MAX_PAYLOAD: usize = PAGE_SIZE - HEADER - 4;
+
+/// Why the store failed. Nothing already stored is lost by a failure.
+#[derive(Debug, thiserror::Error)]
+pub enum FlashError {
+    /// Reading or writing the backing file failed.
+    #[error("flash file {path}: {source}")]
+    Io {
+        /// The backing file.
+        path: PathBuf,
+        /// What the OS said.
+        source: std::io::Error,
+    },
+    /// The snapshot does not fit in a page (cannot happen with this build's snapshot type).
+    #[error("snapshot does not fit in a {PAGE_SIZE}-byte page")]
+    TooLarge,
+}
+
+/// What a page held when the store was opened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PageStatus {
+    /// Erased (all `0xFF`) or never written.
+    Empty,
+    /// A good snapshot of this generation.
+    Good(u32),
+    /// Written but failing a check: torn, corrupted, or of an unknown format.
+    Corrupt,
+}
+
+/// The learner restored from the newest good page.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Restored {
+    /// The learner, continuing where the snapshot left it.
+    pub learner: Learner,
+    /// The snapshot's generation.
+    pub generation: u32,
+    /// The page it came from (0 or 1).
+    pub page: usize,
+}
+
+/// The two-page store over a file.
+#[derive(Debug)]
+pub struct FlashStore {
+    file: File,
+    path: PathBuf,
+    /// Page and generation of the newest good snapshot.
+    newest: Option<(usize, u32)>,
+    pages: [PageStatus; 2],
+}
+
+fn decode_page(page: &[u8]) -> Result<(u32, Learner), PageStatus> {
+    if page.iter().all(|&b| b == 0xFF) {
+        return Err(PageStatus::Empty);
+    }
+    if page[..4] != MAGIC {
+        return Err(PageStatus::Corrupt);
+    }
+    let generation = u32::from_le_bytes([page[4], page[5], page[6], page[7]]);
+    let n = u16::from_le_bytes([page[8], page[9]]) as usize;
+    if n > MAX_PAYLOAD {
+        return Err(PageStatus::Corrupt);
+    }
+    let stored = u32::from_le_bytes([
+        page[HEADER + n],
+        page[HEADER + n + 1],
+        page[HEADER + n + 2],
+        page[HEADER + n + 3],
+    ]);
+    if CRC32.checksum(&page[..HEADER + n]) != stored {
+        return Err(PageStatus::Corrupt);
+    }
+    let snapshot: LearnerSnapshot =
+        protocol::open(&page[HEADER..HEADER + n]).map_err(|_| PageStatus::Corrupt)?;
+    let learner = Learner::restore(&snapshot).map_err(|_| PageStatus::Corrupt)?;
+    Ok((generation, learner))
+}
+
+fn encode_page(generation: u32, snapshot: &LearnerSnapshot) -> Result<[u8; PAGE_SIZE], FlashError> {
+    let mut page = [0xFFu8; PAGE_SIZE];
+    let n = protocol::seal(snapshot, &mut page[HEADER..HEADER + MAX_PAYLOAD])
+        .map_err(|_| FlashError::TooLarge)?
+        .len();
+    page[..4].copy_from_slice(&MAGIC);
+    page[4..8].copy_from_slice(&generation.to_le_bytes());
+    page[8..10].copy_from_slice(&(n as u16).to_le_bytes());
+    let crc = CRC32.checksum(&page[..HEADER + n]);
+    page[HEADER + n..HEADER + n + 4].copy_from_slice(&crc.to_le_bytes());
+    Ok(page)
+}
+
+impl FlashStore {
+    /// Opens (or creates) the store at `path` and restores the newest good snapshot, if any.
+    ///
+    /// A file of the wrong size is read as far as it goes; missing bytes count as erased.
+    pub fn open(path: impl AsRef<Path>) -> Result<(Self, Option<Restored>), FlashError> {
+        let path = path.as_ref().to_path_buf();
+        let io = |source| FlashError::Io {
+            path: path.clone(),
+            source,
+        };
+        let mut file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .open(&path)
+            .map_err(io)?;
+        let mut bytes = Vec::with_capacity(2 * PAGE_SIZE);
+        file.read_to_end(&mut bytes).map_err(io)?;
+        bytes.resize(2 * PAGE_SIZE, 0xFF);
+        bytes.truncate(2 * PAGE_SIZE);
+        let mut pages = [PageStatus::Empty; 2];
+        let mut best: Option<Restored> = None;
+        for (i, status) in pages.iter_mut().enumerate() {
+            match decode_page(&bytes[i * PAGE_SIZE..(i + 1) * PAGE_SIZE]) {
+                Ok((generation, learner)) => {
+                    *status = PageStatus::Good(generation);
+                    if best.is_none_or(|b| generation > b.generation) {
+                        best = Some(Restored {
+                            learner,
+                            generation,
+                            page: i,
+                        });
+                    }
+                }
+                Err(s) => *status = s,
+            }
+        }
+        let store = Self {
+            file,
+            path,
+            newest: best.map(|b| (b.page, b.generation)),
+            pages,
+        };
+        Ok((store, best))
+    }
+
+    /// What each page held when the store was opened.
+    pub fn pages(&self) -> [PageStatus; 2] {
+        self.pages
+    }
+
+    /// The generation of the newest good snapshot, if any.
+    pub fn generation(&self) -> Option<u32> {
+        self.newest.map(|(_, g)| g)
+    }
+
+    /// Writes `snapshot` to the page not holding the newest good one, flushes it to disk, and
+    /// returns its generation.
+    pub fn save(&mut self, snapshot: &LearnerSnapshot) -> Result<u32, FlashError> {
+        let (page, generation) = match self.newest {
+            Some((p, g)) => (1 - p, g.wrapping_add(1)),
+            None => (0, 1),
+        };
+        let bytes = encode_page(generation, snapshot)?;
+        let io = |source| FlashError::Io {
+            path: self.path.clone(),
+            source,
+        };
+        self.file
+            .seek(SeekFrom::Start((page * PAGE_SIZE) as u64))
+            .map_err(io)?;
+        self.file.write_all(&bytes).map_err(io)?;
+        self.file.sync_data().map_err(io)?;
+        self.newest = Some((page, generation));
+        self.pages[page] = PageStatus::Good(generation);
+        Ok(generation)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firmware_core::{LearnerParams, OnlineLearner};
+
+    fn learner_after(steps: usize) -> Learner {
+        let mut l = Learner::new(LearnerParams::default().check().unwrap());
+        for i in 0..steps {
+            l.step(&[i as f32, -1.0, 0.5, 0.0, 2.0, -3.0]).unwrap();
+        }
+        l
+    }
+
+    #[test]
+    fn a_snapshot_fits_in_a_page_with_room() {
+        let page = encode_page(1, &learner_after(3).snapshot()).unwrap();
+        let n = u16::from_le_bytes([page[8], page[9]]) as usize;
+        assert!(n < MAX_PAYLOAD / 2, "payload {n} bytes");
+    }
+
+    #[test]
+    fn saves_alternate_pages_and_the_newest_wins() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("flash.bin");
+        let (mut store, restored) = FlashStore::open(&path).unwrap();
+        assert!(restored.is_none());
+        assert_eq!(store.pages(), [PageStatus::Empty; 2]);
+        for k in 1..=5 {
+            assert_eq!(store.save(&learner_after(k).snapshot()).unwrap(), k as u32);
+        }
+        drop(store);
+        let (store, restored) = FlashStore::open(&path).unwrap();
+        let r = restored.unwrap();
+        assert_eq!((r.generation, r.page), (5, 0));
+        assert_eq!(r.learner, learner_after(5));
+        assert_eq!(store.pages(), [PageStatus::Good(5), PageStatus::Good(4)]);
+    }
+
+    #[test]
+    fn a_torn_or_corrupt_page_falls_back_to_the_other() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("flash.bin");
+        let (mut store, _) = FlashStore::open(&path).unwrap();
+        store.save(&learner_after(1).snapshot()).unwrap(); // page 0, gen 1
+        store.save(&learner_after(2).snapshot()).unwrap(); // page 1, gen 2
+        drop(store);
+        // Flip one byte in the middle of page 1's payload.
+        let mut bytes = std::fs::read(&path).unwrap();
+        bytes[PAGE_SIZE + 40] ^= 0x10;
+        std::fs::write(&path, &bytes).unwrap();
+        let (store, restored) = FlashStore::open(&path).unwrap();
+        assert_eq!(store.pages(), [PageStatus::Good(1), PageStatus::Corrupt]);
+        let r = restored.unwrap();
+        assert_eq!((r.generation, r.learner), (1, learner_after(1)));
+        // A torn write: the file ends in the middle of page 1.
+        std::fs::write(&path, &bytes[..PAGE_SIZE + 30]).unwrap();
+        let (mut store, restored) = FlashStore::open(&path).unwrap();
+        assert_eq!(restored.unwrap().learner, learner_after(1));
+        // The next save overwrites the bad page, never the good one.
+        assert_eq!(store.save(&learner_after(3).snapshot()).unwrap(), 2);
+        let (store, restored) = FlashStore::open(&path).unwrap();
+        assert_eq!(store.pages(), [PageStatus::Good(1), PageStatus::Good(2)]);
+        assert_eq!(restored.unwrap().learner, learner_after(3));
+    }
+
+    #[test]
+    fn garbage_files_restore_nothing_and_do_not_panic() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("flash.bin");
+        for garbage in [
+            vec![],
+            vec![0u8; 7],
+            vec![0x55; 2 * PAGE_SIZE],
+            b"CFW1\xff\xff\xff\xff\xff\xff".to_vec(),
+        ] {
+            std::fs::write(&path, &garbage).unwrap();
+            let (_, restored) = FlashStore::open(&path).unwrap();
+            assert!(restored.is_none());
+        }
+    }
+
+    #[test]
+    fn an_unwritable_path_is_a_clear_error() {
+        let err = FlashStore::open("/nonexistent-dir/flash.bin").unwrap_err();
+        assert!(
+            err.to_string().contains("/nonexistent-dir/flash.bin"),
+            "{err}"
+        );
+    }
+}
