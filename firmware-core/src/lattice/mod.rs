@@ -1,0 +1,237 @@
+//! The 64 candidate trajectories, fixed at compile time.
+//!
+//! Every trajectory starts at the car frame's origin (the rear axle), heading along `x`, and is
+//! made of two constant-curvature segments that a kinematic bicycle (wheelbase [`WHEELBASE`])
+//! follows exactly with the segment's steering angle. Two families:
+//!
+//! * **Cruise** (actions 0–48): two 0.5 m segments at [`CRUISE_SPEED`], each with a curvature
+//!   among `κ_max · {0, ±1/3, ±2/3, ±1}` (7 × 7 = 49 shapes). Equal curvatures make arcs
+//!   (straight included); opposite curvatures make **lane shifts** that move sideways and end
+//!   parallel to the start (up to ±0.26 m); the rest turn then hold, or hold then turn.
+//! * **Creep** (actions 49–63): one 0.5 m arc at [`CREEP_SPEED`], curvature among
+//!   `κ_max · {0, ±1/7, …, ±1}`: slow, finely graded moves for tight spots.
+//!
+//! `κ_max = tan(0.30 rad) / 0.29 m ≈ 1.067 /m` (see [`MAX_PLANNING_STEERING`]). Each trajectory is
+//! sampled at [`SAMPLES`] poses evenly spaced along its length (every 0.1 m for cruise, every
+//! 0.05 m for creep), the last one at its end.
+//!
+//! Indices are ordered gentlest first, each left-turning shape followed by its mirror image:
+//! action 0 is the straight cruise trajectory, so a zero weight vector (all scores tie, the
+//! lowest index wins) drives straight. [`Trajectory::mirror`] gives the mirror image of every
+//! action; [`mirror_action`] maps indices.
+//!
+//! ```text
+//!   y (left)                 cruise shapes, seen from above (x forward):
+//!   ▲     ╭──      arc  (κ, κ)          ╭─── lane shift (κ, −κ): ends parallel, offset
+//!   │   ╭─╯                           ╭─╯
+//!   ●───────▶ x  straight (0, 0)   ●──╯        turn-and-hold (κ, 0), hold-and-turn (0, κ)
+//! ```
+//!
+//! `host-sim lattice` draws the whole lattice to an SVG.
+//!
+//! ```
+//! use firmware_core::lattice::{trajectory, Family, SAMPLES};
+//! use firmware_core::ActionIndex;
+//!
+//! let straight = trajectory(ActionIndex::new(0).unwrap());
+//! assert_eq!(straight.family, Family::Cruise);
+//! let end = straight.end();
+//! assert!((end.x - 1.0).abs() < 1e-6 && end.y == 0.0);
+//! assert_eq!(straight.poses.len(), SAMPLES);
+//! ```
+
+mod params;
+
+pub use params::*;
+
+use crate::action::{ActionIndex, MAX_ACTIONS};
+
+/// A pose in the car frame.
+#[derive(Clone, Copy, PartialEq, Debug, Default)]
+pub struct Pose {
+    /// Forward (m).
+    pub x: f32,
+    /// Left (m).
+    pub y: f32,
+    /// Heading (rad, counter-clockwise).
+    pub theta: f32,
+}
+
+/// One constant-curvature piece of a trajectory.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct Segment {
+    /// Curvature (1/m, positive turning left).
+    pub curvature: f32,
+    /// Arc length (m).
+    pub length: f32,
+    /// The bicycle model's steering angle for this curvature, `atan(κ · WHEELBASE)` (rad).
+    pub steering: f32,
+}
+
+/// Which family a trajectory belongs to.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum Family {
+    /// 1 m, two segments, cruise speed.
+    Cruise,
+    /// 0.5 m, one arc, creep speed.
+    Creep,
+}
+
+/// One candidate trajectory: what the tracking controller follows and what the evaluator scores.
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct Trajectory {
+    /// Its family.
+    pub family: Family,
+    /// The two segments, in order.
+    pub segments: [Segment; 2],
+    /// The speed to drive it at (m/s).
+    pub speed: f32,
+    /// [`SAMPLES`] poses evenly spaced along it, the last at its end.
+    pub poses: [Pose; SAMPLES],
+    /// The centre of the car's footprint at each pose ([`FOOTPRINT_CENTER_OFFSET`] ahead of it):
+    /// the points clearances and collisions are measured from, `[x, y]`.
+    pub centers: [[f32; 2]; SAMPLES],
+    mirror: u8,
+}
+
+impl Trajectory {
+    /// Total length (m).
+    pub fn length(&self) -> f32 {
+        self.segments[0].length + self.segments[1].length
+    }
+
+    /// The last pose.
+    pub fn end(&self) -> Pose {
+        self.poses[SAMPLES - 1]
+    }
+
+    /// The action whose trajectory is this one mirrored along the car's axis.
+    pub fn mirror(&self) -> ActionIndex {
+        // Generated tables hold indices below MAX_ACTIONS (checked in the tests).
+        ActionIndex::new(self.mirror as usize).unwrap_or(ActionIndex::FIRST)
+    }
+
+    /// The steering angle and the curvature at arc length `s` from the start (the second segment's
+    /// beyond the end).
+    pub fn segment_at(&self, s: f32) -> &Segment {
+        if s < self.segments[0].length {
+            &self.segments[0]
+        } else {
+            &self.segments[1]
+        }
+    }
+}
+
+include!(concat!(env!("OUT_DIR"), "/lattice_tables.rs"));
+
+/// The trajectory of action `a`.
+#[inline]
+pub fn trajectory(a: ActionIndex) -> &'static Trajectory {
+    &TRAJECTORIES[a.get()]
+}
+
+/// The mirror image of action `a`.
+#[inline]
+pub fn mirror_action(a: ActionIndex) -> ActionIndex {
+    trajectory(a).mirror()
+}
+
+const _: () = assert!(MAX_ACTIONS == 64, "the lattice has 64 trajectories");
+const _: () = assert!(
+    (CRUISE_LEVELS * CRUISE_LEVELS + CREEP_LEVELS) == MAX_ACTIONS,
+    "cruise and creep families fill the 64 actions"
+);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn all() -> impl Iterator<Item = (ActionIndex, &'static Trajectory)> {
+        ActionIndex::all().map(|a| (a, trajectory(a)))
+    }
+
+    #[test]
+    fn families_and_lengths() {
+        for (a, t) in all() {
+            let expected = if a.get() < 49 {
+                Family::Cruise
+            } else {
+                Family::Creep
+            };
+            assert_eq!(t.family, expected, "{a}");
+            let len = if t.family == Family::Cruise { 1.0 } else { 0.5 };
+            assert!((t.length() - len).abs() < 1e-6);
+            // Consecutive samples are one step of arc length apart (chords of gentle arcs).
+            let mut prev = Pose::default();
+            for p in &t.poses {
+                let d = ((p.x - prev.x).powi(2) + (p.y - prev.y).powi(2)).sqrt();
+                assert!((d - len / SAMPLES as f32).abs() < 2e-3, "{a}: step {d}");
+                prev = *p;
+            }
+        }
+    }
+
+    #[test]
+    fn steering_and_curvature_are_within_the_car_s_limits() {
+        for (_, t) in all() {
+            for s in &t.segments {
+                assert!(s.steering.abs() <= MAX_PLANNING_STEERING + 1e-6);
+                assert!((s.curvature - libm::tanf(s.steering) / WHEELBASE).abs() < 1e-5);
+                assert!(s.curvature.abs() <= MAX_CURVATURE + 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn straight_first_and_mirrors_pair_up() {
+        let t0 = trajectory(ActionIndex::FIRST);
+        // Mirror images are neighbours: the left-turning one first.
+        for (a, t) in all() {
+            let m = t.mirror().get();
+            assert!(m == a.get() || m.abs_diff(a.get()) == 1, "{a} <-> {m}");
+        }
+        assert!(t0.poses.iter().all(|p| p.y == 0.0 && p.theta == 0.0));
+        for (a, t) in all() {
+            let m = trajectory(t.mirror());
+            assert_eq!(m.mirror(), a, "mirror is an involution");
+            for (p, q) in t.poses.iter().zip(m.poses.iter()) {
+                assert_eq!((p.x, p.y, p.theta), (q.x, -q.y, -q.theta), "{a}");
+            }
+        }
+    }
+
+    #[test]
+    fn lane_shifts_end_parallel_and_offset() {
+        let mut shifts = 0;
+        for (_, t) in all() {
+            let [s1, s2] = t.segments;
+            if t.family == Family::Cruise && s1.curvature != 0.0 && s1.curvature == -s2.curvature {
+                shifts += 1;
+                let end = t.end();
+                assert!(end.theta.abs() < 1e-6, "ends parallel");
+                assert!(end.y.abs() > 0.05, "moved sideways");
+            }
+        }
+        assert_eq!(shifts, 6, "three offsets each side");
+    }
+
+    #[test]
+    fn sample_tables_are_consistent() {
+        for (a, t) in all() {
+            for (k, &u) in SAMPLE_OF[a.get()].iter().enumerate() {
+                let p = t.poses[k];
+                let [x, y] = SAMPLE_POINTS[u as usize];
+                assert_eq!([x, y], t.centers[k]);
+                let cx = p.x + FOOTPRINT_CENTER_OFFSET * libm::cosf(p.theta);
+                let cy = p.y + FOOTPRINT_CENTER_OFFSET * libm::sinf(p.theta);
+                assert!((x - cx).abs() < 1e-5 && (y - cy).abs() < 1e-5, "{a}/{k}");
+            }
+        }
+        for (w, rho) in SAMPLE_WINDOW.iter().zip(SAMPLE_RHO.iter()) {
+            assert!(w[1] as usize <= SCAN_BEAMS && w[1] > 0);
+            if *rho <= OBSTACLE_CLIP {
+                assert_eq!(w[1] as usize, SCAN_BEAMS);
+            }
+        }
+    }
+}
