@@ -3,8 +3,9 @@
 //! Every action `a` of a tick has a feature vector `φ(s, a)` of [`FEATURE_COUNT`] entries, in the
 //! order of [`Feature`]; a [`FeatureTable`] holds one row per action. The layout follows the paper's
 //! section 6: clearance to obstacles, clearance to each semantic class, the path error, and the
-//! lateral displacement of the trajectory's end (right positive). The lattice evaluator fills
-//! the table from an observation; tests and the synthetic teacher may fill it directly.
+//! lateral displacement of the trajectory's end (right positive). The evaluator
+//! ([`crate::evaluator`]) fills the table from an observation; tests and synthetic teachers may
+//! fill it directly.
 //!
 //! Numbers in a table are trusted only after [`FeatureTable::check`]: each entry must be finite
 //! with magnitude at most [`FEATURE_BOUND`].
@@ -32,7 +33,7 @@ pub const FEATURE_COUNT: usize = 6;
 
 /// Largest magnitude a feature may have. Larger values are rejected as absurd.
 ///
-/// The lattice evaluator's features stay far below it; the bound leaves room for
+/// The evaluator's features stay within ±10 (see [`crate::evaluator`]); the bound leaves room for
 /// hand-built or synthetic features while keeping every score `w·φ` far from `f32` overflow
 /// (`FEATURE_COUNT · WEIGHT_BOUND · FEATURE_BOUND = 6e10`).
 pub const FEATURE_BOUND: f32 = 1.0e4;

@@ -75,9 +75,12 @@
 
 pub mod action;
 pub mod error;
+pub mod evaluator;
 pub mod feature;
 pub mod feedback;
+pub mod lattice;
 pub mod learner;
+pub mod observation;
 pub mod policy;
 pub mod surrogate;
 
