@@ -74,6 +74,7 @@
 #![deny(missing_docs)]
 
 pub mod action;
+pub mod agent;
 pub mod error;
 pub mod evaluator;
 pub mod feature;

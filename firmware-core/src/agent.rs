@@ -1,0 +1,242 @@
+//! The car's side of a control tick: observe, act, and learn from feedback about a recent tick.
+//!
+//! An [`Agent`] owns the [`Evaluator`], the [`Learner`] and the features of the last
+//! [`TICK_HISTORY`] ticks, so that feedback arriving after the next observation (a slow link, a
+//! retransmission) is still judged against the tick it refers to.
+//!
+//! ```
+//! use firmware_core::agent::Agent;
+//! use firmware_core::observation::Observation;
+//! use firmware_core::{ActionFeedback, ActionIndex, Feedback, Learner, LearnerParams};
+//!
+//! let mut agent = Agent::new(Learner::new(LearnerParams::default().check().unwrap()));
+//! let decision = agent.act(1, &Observation::open_space()).unwrap();
+//! assert_eq!(decision.action, Some(ActionIndex::new(0).unwrap())); // zero weights: straight
+//! let fb = Feedback::Action(ActionFeedback { action: ActionIndex::new(3).unwrap() });
+//! agent.feedback(1, &fb).unwrap();
+//! assert!(agent.feedback(7, &fb).is_err()); // no such tick
+//! ```
+
+use core::fmt;
+
+use crate::action::{ActionIndex, ActionMask};
+use crate::error::LearnError;
+use crate::evaluator::Evaluator;
+use crate::feature::FeatureTable;
+use crate::feedback::{Feedback, Round};
+use crate::learner::{Learner, OnlineLearner, Outcome};
+use crate::observation::{Observation, ObservationError};
+
+/// Number of past ticks feedback may refer to.
+pub const TICK_HISTORY: usize = 4;
+
+/// What the agent decided in one tick.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Decision {
+    /// The tick this decides.
+    pub tick: u32,
+    /// The chosen trajectory; `None` when every trajectory collides: the car must stop.
+    pub action: Option<ActionIndex>,
+    /// The trajectories that do not collide.
+    pub allowed: ActionMask,
+}
+
+/// Why feedback was refused. The learner is unchanged.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
+pub enum FeedbackError {
+    /// The tick is not among the last [`TICK_HISTORY`] ticks the agent acted in, or the agent had
+    /// no action in it (everything collided).
+    UnknownTick(u32),
+    /// The learning step refused the feedback.
+    Learn(LearnError),
+}
+
+impl fmt::Display for FeedbackError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FeedbackError::UnknownTick(t) => write!(f, "no recent tick {t} to apply feedback to"),
+            FeedbackError::Learn(e) => write!(f, "{e}"),
+        }
+    }
+}
+
+impl core::error::Error for FeedbackError {}
+
+#[derive(Clone, Debug)]
+struct TickRecord {
+    tick: u32,
+    features: FeatureTable,
+    allowed: ActionMask,
+    chosen: ActionIndex,
+}
+
+/// Evaluator, learner and recent ticks: everything the car runs. About 10 KiB.
+#[derive(Clone, Debug)]
+pub struct Agent {
+    evaluator: Evaluator,
+    learner: Learner,
+    history: [Option<TickRecord>; TICK_HISTORY],
+    next: usize,
+}
+
+impl Agent {
+    /// An agent with `learner`, no history.
+    pub fn new(learner: Learner) -> Self {
+        Self {
+            evaluator: Evaluator::new(),
+            learner,
+            history: [const { None }; TICK_HISTORY],
+            next: 0,
+        }
+    }
+
+    /// The learner.
+    pub fn learner(&self) -> &Learner {
+        &self.learner
+    }
+
+    /// Replaces the learner (a new configuration, a restored snapshot); the history is kept.
+    pub fn set_learner(&mut self, learner: Learner) {
+        self.learner = learner;
+    }
+
+    /// Evaluates `obs`, chooses the action and remembers the tick. On `Err` nothing changed.
+    ///
+    /// Acting again in a tick already remembered replaces that record.
+    pub fn act(&mut self, tick: u32, obs: &Observation) -> Result<Decision, ObservationError> {
+        // Validate before touching the history, so a refused observation changes nothing.
+        obs.validate()?;
+        let slot = self.slot_for(tick);
+        let mut features = match self.history[slot].take() {
+            Some(r) => r.features,
+            None => FeatureTable::ZERO,
+        };
+        let allowed = self.evaluator.evaluate(obs, &mut features)?;
+        let action = self.learner.select(&features, allowed);
+        if let Some(chosen) = action {
+            self.history[slot] = Some(TickRecord {
+                tick,
+                features,
+                allowed,
+                chosen,
+            });
+            if slot == self.next {
+                self.next = (self.next + 1) % TICK_HISTORY;
+            }
+        }
+        Ok(Decision {
+            tick,
+            action,
+            allowed,
+        })
+    }
+
+    /// The slot to (re)use for `tick`: its own if remembered, else the oldest.
+    fn slot_for(&self, tick: u32) -> usize {
+        self.history
+            .iter()
+            .position(|r| r.as_ref().is_some_and(|r| r.tick == tick))
+            .unwrap_or(self.next)
+    }
+
+    /// Learns from feedback about a recent `tick`.
+    pub fn feedback(&mut self, tick: u32, feedback: &Feedback) -> Result<Outcome, FeedbackError> {
+        let record = self
+            .history
+            .iter()
+            .flatten()
+            .find(|r| r.tick == tick)
+            .ok_or(FeedbackError::UnknownTick(tick))?;
+        let round = Round::new(&record.features, record.allowed, record.chosen)
+            .map_err(FeedbackError::Learn)?;
+        self.learner
+            .learn(&round, feedback)
+            .map_err(FeedbackError::Learn)
+    }
+
+    /// Forgets every remembered tick (a reset of the car), keeping the learner.
+    pub fn forget_ticks(&mut self) {
+        self.history = [const { None }; TICK_HISTORY];
+        self.next = 0;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::feedback::ActionFeedback;
+    use crate::learner::LearnerParams;
+
+    fn agent() -> Agent {
+        Agent::new(Learner::new(LearnerParams::paper().check().unwrap()))
+    }
+
+    fn fb(a: usize) -> Feedback {
+        Feedback::Action(ActionFeedback {
+            action: ActionIndex::new(a).unwrap(),
+        })
+    }
+
+    #[test]
+    fn feedback_reaches_back_tick_history_ticks() {
+        let mut ag = agent();
+        let obs = Observation::open_space();
+        for t in 0..10 {
+            ag.act(t, &obs).unwrap();
+        }
+        for t in 10 - TICK_HISTORY as u32..10 {
+            assert!(ag.feedback(t, &fb(3)).is_ok(), "tick {t}");
+        }
+        assert_eq!(
+            ag.feedback(5, &fb(3)).unwrap_err(),
+            FeedbackError::UnknownTick(5)
+        );
+    }
+
+    #[test]
+    fn a_bad_observation_changes_nothing() {
+        let mut ag = agent();
+        let obs = Observation::open_space();
+        ag.act(1, &obs).unwrap();
+        let mut bad = obs.clone();
+        bad.scan.ranges[0] = f32::NAN;
+        assert!(ag.act(2, &bad).is_err());
+        assert!(ag.feedback(1, &fb(3)).is_ok(), "tick 1 still remembered");
+        assert!(ag.feedback(2, &fb(3)).is_err());
+    }
+
+    #[test]
+    fn everything_blocked_means_stop() {
+        let mut ag = agent();
+        let mut obs = Observation::open_space();
+        obs.scan.ranges = [0.1; crate::observation::SCAN_BEAMS];
+        let d = ag.act(1, &obs).unwrap();
+        assert_eq!((d.action, d.allowed), (None, ActionMask::NONE));
+        assert_eq!(
+            ag.feedback(1, &fb(0)).unwrap_err(),
+            FeedbackError::UnknownTick(1)
+        );
+    }
+
+    #[test]
+    fn a_forbidden_teacher_action_is_refused() {
+        let mut ag = agent();
+        let mut obs = Observation::open_space();
+        // A wall 1.2 m ahead blocks the straight cruise trajectory.
+        for j in 0..crate::observation::SCAN_BEAMS {
+            let (c, _) = crate::evaluator::beam_direction(j).unwrap();
+            if c > 0.2 {
+                obs.scan.ranges[j] = 1.2 / c;
+            }
+        }
+        let d = ag.act(1, &obs).unwrap();
+        assert!(!d.allowed.contains(ActionIndex::FIRST));
+        let before = *ag.learner();
+        assert!(matches!(
+            ag.feedback(1, &fb(0)),
+            Err(FeedbackError::Learn(LearnError::ActionNotAllowed(_)))
+        ));
+        assert_eq!(*ag.learner(), before);
+    }
+}
