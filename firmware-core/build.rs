@@ -231,16 +231,26 @@ fn main() {
         -std::f64::consts::PI + (j as f64 + 0.5) * (2.0 * std::f64::consts::PI / SCAN_BEAMS as f64)
     };
     let list = |v: Vec<String>| v.join(", ");
+    // Computed for the left half and mirrored, so beam j and beam SCAN_BEAMS-1-j are exact mirror
+    // images (cos equal, sin negated): the evaluator is then exactly mirror-symmetric.
+    let direction = |j: usize| {
+        let m = SCAN_BEAMS - 1 - j;
+        if j >= SCAN_BEAMS / 2 {
+            (libm::cos(bearing(j)), libm::sin(bearing(j)))
+        } else {
+            (libm::cos(bearing(m)), -libm::sin(bearing(m)))
+        }
+    };
     writeln!(
         out,
         "pub(crate) static BEAM_COS: [f32; {SCAN_BEAMS}] = [{}];",
-        list((0..SCAN_BEAMS).map(|j| f(libm::cos(bearing(j)))).collect())
+        list((0..SCAN_BEAMS).map(|j| f(direction(j).0)).collect())
     )
     .unwrap();
     writeln!(
         out,
         "pub(crate) static BEAM_SIN: [f32; {SCAN_BEAMS}] = [{}];",
-        list((0..SCAN_BEAMS).map(|j| f(libm::sin(bearing(j)))).collect())
+        list((0..SCAN_BEAMS).map(|j| f(direction(j).1)).collect())
     )
     .unwrap();
 
@@ -267,14 +277,15 @@ fn main() {
     .unwrap();
     let mut rho = Vec::new();
     let mut windows = Vec::new();
+    let mut total = 0usize;
     for &(x, y) in &points {
         let (x, y) = (x as f64, y as f64);
         let r = libm::hypot(x, y);
         let alpha = libm::atan2(y, x);
         rho.push(f(r));
         let clip = OBSTACLE_CLIP as f64;
-        let (first, count) = if r <= clip * 1.001 {
-            (0usize, SCAN_BEAMS)
+        let beams: Vec<usize> = if r <= clip * 1.001 {
+            (0..SCAN_BEAMS).collect()
         } else {
             let h = libm::asin(clip / r) + 0.01;
             let inside: Vec<usize> = (0..SCAN_BEAMS)
@@ -290,15 +301,22 @@ fn main() {
                 })
                 .collect();
             assert!(!inside.is_empty() && inside.len() < SCAN_BEAMS);
-            // The window is contiguous modulo SCAN_BEAMS: find its first beam.
-            let first = *inside
-                .iter()
-                .find(|&&j| !inside.contains(&((j + SCAN_BEAMS - 1) % SCAN_BEAMS)))
-                .unwrap();
-            (first, inside.len())
+            inside
         };
-        windows.push(format!("[{first}, {count}]"));
+        let mask: u64 = beams.iter().fold(0u64, |m, &j| m | 1u64 << j);
+        total += beams.len();
+        windows.push(format!("{mask:#018x}"));
     }
+    let max_rho = points
+        .iter()
+        .map(|p| libm::hypot(p.0 as f64, p.1 as f64))
+        .fold(0.0, f64::max);
+    writeln!(
+        out,
+        "/// Largest distance of a sample point from the sensor (m)."
+    )
+    .unwrap();
+    writeln!(out, "pub const MAX_SAMPLE_RHO: f32 = {};", f(max_rho)).unwrap();
     writeln!(
         out,
         "pub(crate) static SAMPLE_RHO: [f32; UNIQUE_SAMPLES] = [{}];",
@@ -307,7 +325,13 @@ fn main() {
     .unwrap();
     writeln!(
         out,
-        "pub(crate) static SAMPLE_WINDOW: [[u8; 2]; UNIQUE_SAMPLES] = [{}];",
+        "/// Number of (sample, beam) pairs in all the windows together."
+    )
+    .unwrap();
+    writeln!(out, "pub const WINDOW_PAIRS: usize = {total};").unwrap();
+    writeln!(
+        out,
+        "pub(crate) static SAMPLE_WINDOW: [u64; UNIQUE_SAMPLES] = [{}];",
         list(windows)
     )
     .unwrap();

@@ -41,8 +41,12 @@
 //! 2. for a sample at range `ρ` and bearing `α`, a scan point on the beam at bearing `β` is at least
 //!    `ρ·sin|α − β|` away (at least `ρ` beyond 90°), so only the beams within
 //!    `asin(0.5 m / ρ)` of `α` can come within the 0.5 m clip; these windows are computed at
-//!    compile time (`build.rs`), 11 518 (sample, beam) pairs in all, with a 0.01 rad margin;
-//! 3. a beam whose range exceeds `ρ + 0.5 m` cannot come within the clip either and is skipped.
+//!    compile time (`build.rs`) as one 64-bit beam mask per sample, 11 518 (sample, beam) pairs
+//!    in all ([`WINDOW_PAIRS`](crate::lattice::WINDOW_PAIRS)), with a 0.01 rad margin;
+//! 3. a beam whose range exceeds `ρ + 0.5 m` cannot come within the clip either: each tick
+//!    builds the mask of beams shorter than the farthest sample's `ρ` + 0.5 m, ANDs it with each
+//!    window, and checks the sample's own `ρ + 0.5 m` for the rest. In open space no beam is
+//!    near and the obstacle pass costs nothing.
 //!
 //! Every skipped beam is provably farther than the clip, so the minimum of the kept ones, once
 //! clipped, equals the brute-force minimum: the features and the mask are bit-identical to a
@@ -63,8 +67,8 @@
 use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
 use crate::feature::{Feature, FeatureTable, Features};
 use crate::lattice::{
-    BEAM_COS, BEAM_SIN, OBSTACLE_CLIP, SAMPLE_OF, SAMPLE_POINTS, SAMPLE_RHO, SAMPLE_WINDOW,
-    SAMPLES, SCAN_BEAMS, TRAJECTORIES, UNIQUE_SAMPLES,
+    BEAM_COS, BEAM_SIN, MAX_SAMPLE_RHO, OBSTACLE_CLIP, SAMPLE_OF, SAMPLE_POINTS, SAMPLE_RHO,
+    SAMPLE_WINDOW, SAMPLES, SCAN_BEAMS, TRAJECTORIES, UNIQUE_SAMPLES,
 };
 use crate::observation::{Observation, ObservationError, SemanticClass};
 
@@ -89,6 +93,10 @@ const _: () = assert!(UNIQUE_SAMPLES <= u16::MAX as usize);
 const _: () = assert!(crate::observation::SCAN_BEAMS == SCAN_BEAMS);
 
 const COLLIDE_WORDS: usize = UNIQUE_SAMPLES.div_ceil(64);
+
+/// Slack added to "range beyond ρ + clip" before a beam is skipped: 1 mm, far above f32
+/// rounding at these magnitudes, so a skipped beam is provably beyond the clip.
+const REACH_MARGIN: f32 = 1.0e-3;
 
 /// The evaluator and its scratch memory (about 3.5 KiB), reused from tick to tick.
 ///
@@ -161,21 +169,28 @@ impl Evaluator {
 
     /// Clipped obstacle clearance and collision of every distinct sample.
     fn obstacles(&mut self, obs: &Observation) {
+        // Beams that may come within the clip of some sample: range below the farthest sample's
+        // distance plus the clip. In open space this is empty and the loop below does nothing.
+        let mut near = 0u64;
         for j in 0..SCAN_BEAMS {
             let r = obs.scan.ranges[j];
             self.points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
+            if r < MAX_SAMPLE_RHO + OBSTACLE_CLIP + REACH_MARGIN {
+                near |= 1 << j;
+            }
         }
         self.collides = [0; COLLIDE_WORDS];
         let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
         let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
         for u in 0..UNIQUE_SAMPLES {
             let [sx, sy] = SAMPLE_POINTS[u];
-            // Beams beyond ρ + clip (+1 mm against rounding) cannot come within the clip.
-            let reach = SAMPLE_RHO[u] + OBSTACLE_CLIP + 1.0e-3;
-            let [first, count] = SAMPLE_WINDOW[u];
+            // Beams beyond ρ + clip cannot come within the clip either.
+            let reach = SAMPLE_RHO[u] + OBSTACLE_CLIP + REACH_MARGIN;
             let mut best = clip2;
-            let mut j = first as usize;
-            for _ in 0..count {
+            let mut beams = SAMPLE_WINDOW[u] & near;
+            while beams != 0 {
+                let j = beams.trailing_zeros() as usize;
+                beams &= beams - 1;
                 if obs.scan.ranges[j] < reach {
                     let dx = self.points[j][0] - sx;
                     let dy = self.points[j][1] - sy;
@@ -183,10 +198,6 @@ impl Evaluator {
                     if d2 < best {
                         best = d2;
                     }
-                }
-                j += 1;
-                if j == SCAN_BEAMS {
-                    j = 0;
                 }
             }
             self.clearance[u] = if best < clip2 {

@@ -227,11 +227,14 @@ mod tests {
                 assert!((x - cx).abs() < 1e-5 && (y - cy).abs() < 1e-5, "{a}/{k}");
             }
         }
+        let mut pairs = 0;
         for (w, rho) in SAMPLE_WINDOW.iter().zip(SAMPLE_RHO.iter()) {
-            assert!(w[1] as usize <= SCAN_BEAMS && w[1] > 0);
+            assert!(*w != 0 && *rho <= MAX_SAMPLE_RHO);
             if *rho <= OBSTACLE_CLIP {
-                assert_eq!(w[1] as usize, SCAN_BEAMS);
+                assert_eq!(*w, u64::MAX);
             }
+            pairs += w.count_ones() as usize;
         }
+        assert_eq!(pairs, WINDOW_PAIRS);
     }
 }

@@ -1,0 +1,2 @@
+//! Shared helpers of the integration tests (and of the benchmark, through `#[path]`).
+pub(crate) mod naive;
