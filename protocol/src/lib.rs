@@ -4,6 +4,7 @@
 //!
 //! * [`can`]: checked CAN / CAN FD frames and the [`can::CanBus`] trait transports implement.
 //! * [`envelope`]: the versioned, CRC-checked postcard envelope.
+//! * [`slcan`]: the Lawicel serial-line CAN codec (the car's UART speaks it).
 //!
 //! Every message travels inside an
 //! [`envelope`]: a protocol version byte, the postcard encoding of the value, and a CRC-16 over
@@ -16,5 +17,6 @@
 
 pub mod can;
 pub mod envelope;
+pub mod slcan;
 
 pub use envelope::{ENVELOPE_OVERHEAD, EnvelopeError, PROTOCOL_VERSION, open, seal};

@@ -1,0 +1,396 @@
+//! CAN frames over UDP in cannelloni's packet format (version 2), on 127.0.0.1.
+//!
+//! [cannelloni](https://github.com/mguentner/cannelloni) tunnels a SocketCAN bus over UDP; a
+//! cannelloni instance on a machine with a real bus could bridge this link onto it. Its format
+//! (`doc/udp_format.md` in that repository), everything big-endian:
+//!
+//! | bytes | field |
+//! |---|---|
+//! | 1 | version, 2 |
+//! | 1 | op code, 0 = DATA |
+//! | 1 | sequence number (wraps) |
+//! | 2 | number of CAN frames |
+//!
+//! then per frame: `can_id` (4 bytes, Linux `canid_t`: bit 31 = extended, bit 30 = remote,
+//! bit 29 = error frame), `len` (the payload length; bit 7 set marks a CAN FD frame, which is then
+//! followed by a `flags` byte: 0x01 bit-rate switch, 0x04 FD frame), and the payload.
+//!
+//! This link sends one frame per packet (no batching delay). Remote and error frames received are
+//! skipped; a packet that is truncated or inconsistent is reported as malformed and dropped whole.
+
+use std::collections::VecDeque;
+use std::io::ErrorKind;
+use std::net::{SocketAddr, SocketAddrV4, UdpSocket};
+use std::time::{Duration, Instant};
+
+use protocol::can::{CLASSIC_MAX_DATA, CanFrame, CanId, FD_LENGTHS};
+
+use super::{Link, LinkError};
+
+/// The cannelloni format version this codec speaks.
+pub const VERSION: u8 = 2;
+/// The DATA op code.
+pub const OP_DATA: u8 = 0;
+/// Size of the packet header.
+pub const HEADER_LEN: usize = 5;
+
+const EFF_FLAG: u32 = 0x8000_0000;
+const RTR_FLAG: u32 = 0x4000_0000;
+const ERR_FLAG: u32 = 0x2000_0000;
+const FD_LEN_FLAG: u8 = 0x80;
+const CANFD_BRS: u8 = 0x01;
+const CANFD_FDF: u8 = 0x04;
+
+/// Largest datagram read (cannelloni's default MTU-sized packets fit with room to spare).
+const MAX_DATAGRAM: usize = 2048;
+
+/// Appends one DATA packet holding `frames` to `out`.
+pub fn encode_packet(seq: u8, frames: &[CanFrame], out: &mut Vec<u8>) {
+    out.extend_from_slice(&[VERSION, OP_DATA, seq]);
+    out.extend_from_slice(&(frames.len() as u16).to_be_bytes());
+    for f in frames {
+        let word = match f.id() {
+            CanId::Standard(id) => id as u32,
+            CanId::Extended(id) => id | EFF_FLAG,
+        };
+        out.extend_from_slice(&word.to_be_bytes());
+        let len = f.data().len() as u8;
+        if f.is_fd() {
+            out.push(len | FD_LEN_FLAG);
+            out.push(CANFD_BRS | CANFD_FDF);
+        } else {
+            out.push(len);
+        }
+        out.extend_from_slice(f.data());
+    }
+}
+
+/// Decodes a packet, appending its data frames to `out`; returns the packet's sequence number.
+/// On error nothing is appended.
+pub fn decode_packet(bytes: &[u8], out: &mut Vec<CanFrame>) -> Result<u8, LinkError> {
+    let bad = |d: String| LinkError::malformed("cannelloni", d);
+    if bytes.len() < HEADER_LEN {
+        return Err(bad(format!(
+            "packet of {} bytes is shorter than the header",
+            bytes.len()
+        )));
+    }
+    if bytes[0] != VERSION {
+        return Err(bad(format!("version {}, expected {VERSION}", bytes[0])));
+    }
+    if bytes[1] != OP_DATA {
+        return Err(bad(format!("op code {}, expected DATA", bytes[1])));
+    }
+    let seq = bytes[2];
+    let count = u16::from_be_bytes([bytes[3], bytes[4]]) as usize;
+    let mut frames = Vec::with_capacity(count.min(64));
+    let mut rest = &bytes[HEADER_LEN..];
+    for i in 0..count {
+        if rest.len() < 5 {
+            return Err(bad(format!("frame {i} of {count}: truncated header")));
+        }
+        let word = u32::from_be_bytes([rest[0], rest[1], rest[2], rest[3]]);
+        let raw_len = rest[4];
+        rest = &rest[5..];
+        let fd = raw_len & FD_LEN_FLAG != 0;
+        let len = (raw_len & !FD_LEN_FLAG) as usize;
+        if fd {
+            if rest.is_empty() {
+                return Err(bad(format!("frame {i}: missing CAN FD flags")));
+            }
+            rest = &rest[1..];
+        }
+        let remote = word & RTR_FLAG != 0;
+        let data_len = if remote { 0 } else { len };
+        if rest.len() < data_len {
+            return Err(bad(format!(
+                "frame {i}: {data_len} payload bytes announced, {} left",
+                rest.len()
+            )));
+        }
+        let data = &rest[..data_len];
+        rest = &rest[data_len..];
+        if remote || word & ERR_FLAG != 0 {
+            continue; // valid on a bus, meaningless to this protocol
+        }
+        let id = if word & EFF_FLAG != 0 {
+            CanId::extended(word & 0x1FFF_FFFF)
+        } else {
+            CanId::standard((word & 0x7FF) as u16).filter(|_| word & 0x1FFF_F800 == 0)
+        }
+        .ok_or_else(|| bad(format!("frame {i}: identifier {word:#x} out of range")))?;
+        let frame = if fd {
+            if !FD_LENGTHS.contains(&len) {
+                return Err(bad(format!("frame {i}: {len} is not a CAN FD length")));
+            }
+            CanFrame::new_fd(id, data)
+        } else {
+            if len > CLASSIC_MAX_DATA {
+                return Err(bad(format!("frame {i}: classic frame of {len} bytes")));
+            }
+            CanFrame::new(id, data)
+        }
+        .map_err(|e| bad(format!("frame {i}: {e}")))?;
+        frames.push(frame);
+    }
+    if !rest.is_empty() {
+        return Err(bad(format!("{} bytes after the last frame", rest.len())));
+    }
+    out.extend(frames);
+    Ok(seq)
+}
+
+/// A cannelloni UDP link on 127.0.0.1.
+#[derive(Debug)]
+pub struct UdpLink {
+    socket: UdpSocket,
+    peer: Option<SocketAddr>,
+    connected: bool,
+    seq: u8,
+    pending: VecDeque<CanFrame>,
+    buf: Vec<u8>,
+}
+
+impl UdpLink {
+    /// Binds an ephemeral port on 127.0.0.1 and sends to `remote`.
+    pub fn connect(remote: SocketAddrV4) -> Result<Self, LinkError> {
+        let socket =
+            UdpSocket::bind("127.0.0.1:0").map_err(|e| LinkError::io("bind 127.0.0.1:0", e))?;
+        socket
+            .connect(remote)
+            .map_err(|e| LinkError::io(format!("connect to {remote}"), e))?;
+        Ok(Self::new(socket, Some(SocketAddr::V4(remote)), true))
+    }
+
+    /// Binds `local` (on 127.0.0.1) and answers whoever sent the last packet.
+    pub fn listen(local: SocketAddrV4) -> Result<Self, LinkError> {
+        let socket =
+            UdpSocket::bind(local).map_err(|e| LinkError::io(format!("bind {local}"), e))?;
+        Ok(Self::new(socket, None, false))
+    }
+
+    fn new(socket: UdpSocket, peer: Option<SocketAddr>, connected: bool) -> Self {
+        Self {
+            socket,
+            peer,
+            connected,
+            seq: 0,
+            pending: VecDeque::new(),
+            buf: vec![0; MAX_DATAGRAM],
+        }
+    }
+
+    /// The local address (the port to give the peer when listening on port 0).
+    pub fn local_addr(&self) -> Result<SocketAddr, LinkError> {
+        self.socket
+            .local_addr()
+            .map_err(|e| LinkError::io("local address", e))
+    }
+}
+
+impl Link for UdpLink {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        let mut packet = Vec::with_capacity(HEADER_LEN + 6 + frame.data().len());
+        encode_packet(self.seq, std::slice::from_ref(frame), &mut packet);
+        self.seq = self.seq.wrapping_add(1);
+        let result = if self.connected {
+            self.socket.send(&packet)
+        } else {
+            let peer = self
+                .peer
+                .ok_or_else(|| LinkError::Closed("no peer has spoken yet".into()))?;
+            self.socket.send_to(&packet, peer)
+        };
+        result.map(|_| ()).map_err(|e| LinkError::io("udp send", e))
+    }
+
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(f) = self.pending.pop_front() {
+                return Ok(Some(f));
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                self.socket
+                    .set_nonblocking(true)
+                    .map_err(|e| LinkError::io("udp nonblocking", e))?;
+            } else {
+                self.socket
+                    .set_nonblocking(false)
+                    .map_err(|e| LinkError::io("udp blocking", e))?;
+                self.socket
+                    .set_read_timeout(Some(left))
+                    .map_err(|e| LinkError::io("udp timeout", e))?;
+            }
+            let got = if self.connected {
+                self.socket.recv(&mut self.buf).map(|n| (n, None))
+            } else {
+                self.socket
+                    .recv_from(&mut self.buf)
+                    .map(|(n, a)| (n, Some(a)))
+            };
+            match got {
+                Ok((n, from)) => {
+                    if let Some(a) = from {
+                        self.peer = Some(a);
+                    }
+                    let mut frames = Vec::new();
+                    decode_packet(&self.buf[..n], &mut frames)?;
+                    self.pending.extend(frames);
+                }
+                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
+                    if Instant::now() >= deadline {
+                        return Ok(None);
+                    }
+                }
+                // A previous send to a closed port on loopback comes back as ECONNREFUSED.
+                Err(e) if e.kind() == ErrorKind::ConnectionRefused => {
+                    if Instant::now() >= deadline {
+                        return Ok(None);
+                    }
+                }
+                Err(e) => return Err(LinkError::io("udp receive", e)),
+            }
+        }
+    }
+
+    fn describe(&self) -> String {
+        match (self.socket.local_addr(), self.peer) {
+            (Ok(l), Some(p)) => format!("cannelloni/udp {l} <-> {p}"),
+            (Ok(l), None) => format!("cannelloni/udp listening on {l}"),
+            _ => "cannelloni/udp".into(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn frames() -> Vec<CanFrame> {
+        vec![
+            CanFrame::new(CanId::standard(0x123).unwrap(), &[0xDE, 0xAD, 0xBE, 0xEF]).unwrap(),
+            CanFrame::new(CanId::extended(0x1ABC_DEF0).unwrap(), &[]).unwrap(),
+            CanFrame::new_fd(CanId::standard(0x7FF).unwrap(), &[7; 12]).unwrap(),
+        ]
+    }
+
+    #[test]
+    fn golden_bytes_of_a_packet() {
+        let mut out = Vec::new();
+        encode_packet(9, &frames()[..1], &mut out);
+        assert_eq!(
+            out,
+            [2, 0, 9, 0, 1, 0, 0, 0x01, 0x23, 4, 0xDE, 0xAD, 0xBE, 0xEF]
+        );
+        let mut out = Vec::new();
+        encode_packet(0, &frames()[2..], &mut out);
+        assert_eq!(&out[5..12], &[0, 0, 0x07, 0xFF, 12 | 0x80, 0x05, 7]);
+    }
+
+    #[test]
+    fn packets_round_trip() {
+        let mut out = Vec::new();
+        encode_packet(200, &frames(), &mut out);
+        let mut back = Vec::new();
+        assert_eq!(decode_packet(&out, &mut back).unwrap(), 200);
+        assert_eq!(back, frames());
+    }
+
+    #[test]
+    fn remote_frames_are_skipped_and_bad_packets_refused() {
+        // One remote frame with dlc 8 and no payload, then a data frame.
+        let mut p = vec![2, 0, 0, 0, 2];
+        p.extend_from_slice(&(0x100u32 | RTR_FLAG).to_be_bytes());
+        p.push(8);
+        p.extend_from_slice(&0x101u32.to_be_bytes());
+        p.extend_from_slice(&[1, 0xAA]);
+        let mut out = Vec::new();
+        decode_packet(&p, &mut out).unwrap();
+        assert_eq!(out.len(), 1);
+        assert_eq!(out[0].data(), &[0xAA]);
+
+        let mut good = Vec::new();
+        encode_packet(1, &frames(), &mut good);
+        for cut in 0..good.len() {
+            let mut out = Vec::new();
+            assert!(
+                decode_packet(&good[..cut], &mut out).is_err(),
+                "cut at {cut}"
+            );
+            assert!(out.is_empty());
+        }
+        let mut bad = good.clone();
+        bad[0] = 3;
+        assert!(
+            decode_packet(&bad, &mut Vec::new())
+                .unwrap_err()
+                .to_string()
+                .contains("version 3")
+        );
+        let mut bad = vec![2, 0, 0, 0, 1, 0, 0, 1, 0, 9];
+        bad.extend_from_slice(&[0; 9]);
+        assert!(
+            decode_packet(&bad, &mut Vec::new())
+                .unwrap_err()
+                .to_string()
+                .contains("classic frame of 9")
+        );
+        let mut bad = vec![2, 0, 0, 0, 1, 0, 0, 1, 0, 13 | 0x80, 0];
+        bad.extend_from_slice(&[0; 13]);
+        assert!(
+            decode_packet(&bad, &mut Vec::new())
+                .unwrap_err()
+                .to_string()
+                .contains("not a CAN FD length")
+        );
+        let mut bad = good;
+        bad.push(0);
+        assert!(decode_packet(&bad, &mut Vec::new()).is_err());
+    }
+
+    #[test]
+    fn arbitrary_bytes_never_panic() {
+        let mut state = 0x1234_5678u32;
+        for n in 0..2000 {
+            let bytes: Vec<u8> = (0..n % 80)
+                .map(|_| {
+                    state ^= state << 13;
+                    state ^= state >> 17;
+                    state ^= state << 5;
+                    state as u8
+                })
+                .collect();
+            let mut prefixed = vec![2, 0, 0];
+            prefixed.extend_from_slice(&bytes);
+            let _ = decode_packet(&bytes, &mut Vec::new());
+            let _ = decode_packet(&prefixed, &mut Vec::new());
+        }
+    }
+
+    #[test]
+    fn loopback_exchange() {
+        let mut server = UdpLink::listen("127.0.0.1:0".parse().unwrap()).unwrap();
+        let port = server.local_addr().unwrap().port();
+        let mut client =
+            UdpLink::connect(SocketAddrV4::new(std::net::Ipv4Addr::LOCALHOST, port)).unwrap();
+        assert!(
+            matches!(server.send(&frames()[0]), Err(LinkError::Closed(_))),
+            "no peer yet"
+        );
+        for f in frames() {
+            client.send(&f).unwrap();
+        }
+        for f in frames() {
+            assert_eq!(server.recv(Duration::from_secs(2)).unwrap(), Some(f));
+        }
+        server.send(&frames()[1]).unwrap();
+        assert_eq!(
+            client.recv(Duration::from_secs(2)).unwrap(),
+            Some(frames()[1])
+        );
+        assert_eq!(client.recv(Duration::from_millis(5)).unwrap(), None);
+        assert_eq!(client.recv(Duration::ZERO).unwrap(), None);
+    }
+}
