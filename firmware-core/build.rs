@@ -169,11 +169,12 @@ fn main() {
 
     let mut points: Vec<(f32, f32)> = Vec::new();
     let mut sample_of: Vec<[usize; SAMPLES]> = Vec::new();
+    let mut counts: Vec<usize> = Vec::new();
     for (i, t) in all.iter().enumerate() {
         let mut poses = String::new();
         let mut centers = String::new();
         let mut idx = [0usize; SAMPLES];
-        for (k, slot) in idx.iter_mut().enumerate() {
+        for k in 0..SAMPLES {
             let s = t.length() * (k + 1) as f64 / SAMPLES as f64;
             let p = t.pose_at(s);
             write!(
@@ -184,6 +185,14 @@ fn main() {
                 f(p.theta)
             )
             .unwrap();
+        }
+        // Clearance samples every SAMPLE_SPACING of arc; unused slots repeat the last sample.
+        let count = (t.length() / SAMPLE_SPACING as f64).round() as usize;
+        assert!((1..=SAMPLES).contains(&count));
+        counts.push(count);
+        for (k, slot) in idx.iter_mut().enumerate() {
+            let s = SAMPLE_SPACING as f64 * (k.min(count - 1) + 1) as f64;
+            let p = t.pose_at(s);
             let c = FOOTPRINT_CENTER_OFFSET as f64;
             let pt = (
                 (p.x + c * libm::cos(p.theta)) as f32,
@@ -212,13 +221,14 @@ fn main() {
         };
         writeln!(
             out,
-            "    Trajectory {{ family: Family::{}, segments: [{}, {}], speed: {}, poses: [{}], centers: [{}], mirror: {} }}, // {}",
+            "    Trajectory {{ family: Family::{}, segments: [{}, {}], speed: {}, poses: [{}], sample_points: [{}], sample_count: {}, mirror: {} }}, // {}",
             if t.creep { "Creep" } else { "Cruise" },
             seg(t.segments[0]),
             seg(t.segments[1]),
             f(t.speed),
             poses,
             centers,
+            counts[i],
             mirror[i],
             i
         )
@@ -284,10 +294,15 @@ fn main() {
         let alpha = libm::atan2(y, x);
         rho.push(f(r));
         let clip = OBSTACLE_CLIP as f64;
-        let beams: Vec<usize> = if r <= clip * 1.001 {
-            (0..SCAN_BEAMS).collect()
+        // A beam more than 90° from the sample's bearing is at least its own range away
+        // (ρ² + r² − 2ρr·cos Δ ≥ r²): near samples take the half plane, and the evaluator adds the
+        // beams shorter than the clip, whatever their bearing, at run time.
+        let h = if r <= clip * 1.001 {
+            std::f64::consts::FRAC_PI_2 + 0.01
         } else {
-            let h = libm::asin(clip / r) + 0.01;
+            libm::asin(clip / r) + 0.01
+        };
+        let beams: Vec<usize> = {
             let inside: Vec<usize> = (0..SCAN_BEAMS)
                 .filter(|&j| {
                     let mut d = bearing(j) - alpha;
@@ -300,7 +315,7 @@ fn main() {
                     d.abs() <= h
                 })
                 .collect();
-            assert!(!inside.is_empty() && inside.len() < SCAN_BEAMS);
+            assert!(!inside.is_empty() && inside.len() <= SCAN_BEAMS / 2 + 2);
             inside
         };
         let mask: u64 = beams.iter().fold(0u64, |m, &j| m | 1u64 << j);
@@ -317,6 +332,22 @@ fn main() {
     )
     .unwrap();
     writeln!(out, "pub const MAX_SAMPLE_RHO: f32 = {};", f(max_rho)).unwrap();
+    let mut by_rho: Vec<usize> = (0..points.len()).collect();
+    by_rho.sort_by(|&a, &b| {
+        let r = |i: usize| libm::hypot(points[i].0 as f64, points[i].1 as f64);
+        r(a).total_cmp(&r(b)).then(a.cmp(&b))
+    });
+    writeln!(
+        out,
+        "/// Distinct samples in increasing distance from the sensor."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static SAMPLES_BY_RHO: [u16; UNIQUE_SAMPLES] = [{}];",
+        list(by_rho.iter().map(|i| i.to_string()).collect())
+    )
+    .unwrap();
     writeln!(
         out,
         "pub(crate) static SAMPLE_RHO: [f32; UNIQUE_SAMPLES] = [{}];",

@@ -63,30 +63,45 @@ impl fmt::Display for FeedbackError {
 
 impl core::error::Error for FeedbackError {}
 
+/// The features of one remembered tick. Slots are reused in place: the evaluator writes straight
+/// into a slot's table, so no 1.5 KiB table ever travels on the stack.
 #[derive(Clone, Debug)]
 struct TickRecord {
-    tick: u32,
+    /// `Some(tick)` when the slot holds a tick the agent acted in.
+    tick: Option<u32>,
     features: FeatureTable,
     allowed: ActionMask,
     chosen: ActionIndex,
 }
 
+impl TickRecord {
+    const EMPTY: Self = Self {
+        tick: None,
+        features: FeatureTable::ZERO,
+        allowed: ActionMask::NONE,
+        chosen: ActionIndex::FIRST,
+    };
+}
+
 /// Evaluator, learner and recent ticks: everything the car runs. About 10 KiB.
+///
+/// [`Agent::new`] is a `const fn`, so firmware can place an agent in a `static` (for example a
+/// `static_cell::ConstStaticCell`) without building it on the stack first.
 #[derive(Clone, Debug)]
 pub struct Agent {
     evaluator: Evaluator,
     learner: Learner,
-    history: [Option<TickRecord>; TICK_HISTORY],
+    history: [TickRecord; TICK_HISTORY],
     next: usize,
 }
 
 impl Agent {
     /// An agent with `learner`, no history.
-    pub fn new(learner: Learner) -> Self {
+    pub const fn new(learner: Learner) -> Self {
         Self {
             evaluator: Evaluator::new(),
             learner,
-            history: [const { None }; TICK_HISTORY],
+            history: [TickRecord::EMPTY; TICK_HISTORY],
             next: 0,
         }
     }
@@ -108,22 +123,26 @@ impl Agent {
         // Validate before touching the history, so a refused observation changes nothing.
         obs.validate()?;
         let slot = self.slot_for(tick);
-        let mut features = match self.history[slot].take() {
-            Some(r) => r.features,
-            None => FeatureTable::ZERO,
-        };
-        let allowed = self.evaluator.evaluate(obs, &mut features)?;
-        let action = self.learner.select(&features, allowed);
-        if let Some(chosen) = action {
-            self.history[slot] = Some(TickRecord {
-                tick,
-                features,
-                allowed,
-                chosen,
-            });
-            if slot == self.next {
-                self.next = (self.next + 1) % TICK_HISTORY;
+        let Self {
+            evaluator,
+            learner,
+            history,
+            next,
+        } = self;
+        let record = &mut history[slot];
+        let allowed = evaluator.evaluate(obs, &mut record.features)?;
+        let action = learner.select(&record.features, allowed);
+        match action {
+            Some(chosen) => {
+                record.tick = Some(tick);
+                record.allowed = allowed;
+                record.chosen = chosen;
+                if slot == *next {
+                    *next = (*next + 1) % TICK_HISTORY;
+                }
             }
+            // Nothing to learn about a tick without an action: the slot is free again.
+            None => record.tick = None,
         }
         Ok(Decision {
             tick,
@@ -136,7 +155,7 @@ impl Agent {
     fn slot_for(&self, tick: u32) -> usize {
         self.history
             .iter()
-            .position(|r| r.as_ref().is_some_and(|r| r.tick == tick))
+            .position(|r| r.tick == Some(tick))
             .unwrap_or(self.next)
     }
 
@@ -145,8 +164,7 @@ impl Agent {
         let record = self
             .history
             .iter()
-            .flatten()
-            .find(|r| r.tick == tick)
+            .find(|r| r.tick == Some(tick))
             .ok_or(FeedbackError::UnknownTick(tick))?;
         let round = Round::new(&record.features, record.allowed, record.chosen)
             .map_err(FeedbackError::Learn)?;
@@ -157,7 +175,9 @@ impl Agent {
 
     /// Forgets every remembered tick (a reset of the car), keeping the learner.
     pub fn forget_ticks(&mut self) {
-        self.history = [const { None }; TICK_HISTORY];
+        for r in &mut self.history {
+            r.tick = None;
+        }
         self.next = 0;
     }
 }

@@ -2,13 +2,14 @@
 //!
 //! # Features (paper, section 6), and why these scales
 //!
-//! For trajectory `a` with footprint-centre samples `c_1 … c_10` (see
-//! [`Trajectory::centers`](crate::lattice::Trajectory::centers)) and end pose `e`:
+//! For trajectory `a` with footprint-centre samples `c_1 … c_n` every 0.1 m of arc (see
+//! [`Trajectory::samples`](crate::lattice::Trajectory::samples); `n` = 10 for cruise, 5 for creep)
+//! and end pose `e`, with `k = 10 / n` so that every trajectory counts as ten samples:
 //!
 //! | feature | value | range |
 //! |---|---|---|
-//! | [`Feature::Obstacles`] | `Σ_k min(d_scan(c_k), 0.5 m) / 0.5 m` | 0 … 10 |
-//! | [`Feature::Door`], [`Feature::Stairs`], [`Feature::Chair`] | `Σ_k min(d_class(c_k), 2 m) / 2 m` | 0 … 10 |
+//! | [`Feature::Obstacles`] | `k · Σ_i min(d_scan(c_i), 0.5 m) / 0.5 m` | 0 … 10 |
+//! | [`Feature::Door`], [`Feature::Stairs`], [`Feature::Chair`] | `k · Σ_i min(d_class(c_i), 2 m) / 2 m` | 0 … 10 |
 //! | [`Feature::Path`] | `min(|along| + |cross|, 4 m)`, in metres, of `e` against the path reference | 0 … 4 |
 //! | [`Feature::Right`] | `−10 · e.y` (decimetres, right positive) | −4.9 … 4.9 |
 //!
@@ -36,11 +37,13 @@
 //! A brute-force evaluator measures every (trajectory, sample, beam): 64 × 10 × 64 = 40 960
 //! distances. This one is exact with a fraction of that:
 //!
-//! 1. the 640 samples of the lattice are only 415 distinct points (trajectories share their first
+//! 1. the 565 samples of the lattice are only 340 distinct points (trajectories share their first
 //!    segments), evaluated once each;
 //! 2. for a sample at range `ρ` and bearing `α`, a scan point on the beam at bearing `β` is at least
 //!    `ρ·sin|α − β|` away (at least `ρ` beyond 90°), so only the beams within
-//!    `asin(0.5 m / ρ)` of `α` can come within the 0.5 m clip; these windows are computed at
+//!    `asin(0.5 m / ρ)` of `α` can come within the 0.5 m clip, and for a sample nearer than the
+//!    clip, a beam more than 90° away comes no nearer than its own range, so only those shorter
+//!    than the clip (found each tick) need testing; these windows are computed at
 //!    compile time (`build.rs`) as one 64-bit beam mask per sample, 11 518 (sample, beam) pairs
 //!    in all ([`WINDOW_PAIRS`](crate::lattice::WINDOW_PAIRS)), with a 0.01 rad margin;
 //! 3. a beam whose range exceeds `ρ + 0.5 m` cannot come within the clip either: each tick
@@ -48,10 +51,23 @@
 //!    window, and checks the sample's own `ρ + 0.5 m` for the rest. In open space no beam is
 //!    near and the obstacle pass costs nothing.
 //!
-//! Every skipped beam is provably farther than the clip, so the minimum of the kept ones, once
-//! clipped, equals the brute-force minimum: the features and the mask are bit-identical to a
-//! brute-force evaluator given the same sample points and beam directions (tested against a
-//! naive std implementation in `tests/evaluator.rs`). The error bound is zero.
+//! Every skipped beam is provably farther than the clip, so pruning changes no result.
+//!
+//! Square roots use [`sqrt`], a seed and two Newton steps with relative error at most
+//! [`SQRT_RELATIVE_ERROR`] (a Cortex-M4 spends about 70 instructions on `libm`'s correctly
+//! rounded one, 8 on this). Collisions are decided on squared distances, without any root. So,
+//! against a brute-force evaluator with exact square roots (the naive std implementation in
+//! `tests/support/naive.rs`), the collision mask is identical and every feature is within
+//! [`FEATURE_ERROR_BOUND`]:
+//!
+//! * an obstacle clearance is at most 0.5 m, off by at most 0.5 × 3e-7; ten of them and the
+//!   rounding of their sum stay below 1e-5 after the division by 0.5;
+//! * a semantic clearance below its 2 m clip comes from a centre distance below 7 m (clip + the
+//!   largest radius), off by at most 7 × 3e-7; ten of them stay below 2e-5 after the division by 2;
+//! * path and side features take no root and are exact.
+//!
+//! The bound below leaves a factor of five. Host and car run the same operations, so they agree
+//! bit for bit regardless.
 //!
 //! ```
 //! use firmware_core::evaluator::Evaluator;
@@ -68,7 +84,7 @@ use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
 use crate::feature::{Feature, FeatureTable, Features};
 use crate::lattice::{
     BEAM_COS, BEAM_SIN, MAX_SAMPLE_RHO, OBSTACLE_CLIP, SAMPLE_OF, SAMPLE_POINTS, SAMPLE_RHO,
-    SAMPLE_WINDOW, SAMPLES, SCAN_BEAMS, TRAJECTORIES, UNIQUE_SAMPLES,
+    SAMPLE_WINDOW, SAMPLES, SAMPLES_BY_RHO, SCAN_BEAMS, TRAJECTORIES, UNIQUE_SAMPLES,
 };
 use crate::observation::{Observation, ObservationError, SemanticClass};
 
@@ -78,6 +94,10 @@ pub const SEMANTIC_CLIP: f32 = 2.0;
 /// A sample closer than this to a scan point collides (m): the car's half-width 0.15 m plus a
 /// 0.10 m margin.
 pub const COLLISION_RADIUS: f32 = 0.25;
+
+/// Largest difference between a feature of this evaluator and the same feature computed with
+/// exact square roots (see the module documentation for the derivation; tested).
+pub const FEATURE_ERROR_BOUND: f32 = 1.0e-4;
 
 /// The path error is clipped at this value (m).
 pub const PATH_CLIP: f32 = 4.0;
@@ -92,23 +112,45 @@ const _: () = assert!(
 const _: () = assert!(UNIQUE_SAMPLES <= u16::MAX as usize);
 const _: () = assert!(crate::observation::SCAN_BEAMS == SCAN_BEAMS);
 
-const COLLIDE_WORDS: usize = UNIQUE_SAMPLES.div_ceil(64);
+const COLLIDE_WORDS: usize = SCRATCH / 32;
+
+/// Length of the per-sample scratch arrays: the next power of two above the distinct samples.
+const SCRATCH: usize = UNIQUE_SAMPLES.next_power_of_two();
 
 /// Slack added to "range beyond ρ + clip" before a beam is skipped: 1 mm, far above f32
 /// rounding at these magnitudes, so a skipped beam is provably beyond the clip.
 const REACH_MARGIN: f32 = 1.0e-3;
 
-/// The evaluator and its scratch memory (about 3.5 KiB), reused from tick to tick.
+/// Width of the range bins of the obstacle pass (m).
+const BIN_WIDTH: f32 = 0.05;
+
+/// Number of range bins: enough to cover the farthest sample's ρ + clip.
+const RANGE_BINS: usize =
+    ((MAX_SAMPLE_RHO + OBSTACLE_CLIP + REACH_MARGIN) / BIN_WIDTH) as usize + 1;
+
+/// `BIN_EDGES[b] = b · BIN_WIDTH`, the lower edge of bin `b` (and the upper edge of bin `b − 1`).
+const BIN_EDGES: [f32; RANGE_BINS + 1] = {
+    let mut e = [0.0f32; RANGE_BINS + 1];
+    let mut b = 0;
+    while b <= RANGE_BINS {
+        e[b] = b as f32 * BIN_WIDTH;
+        b += 1;
+    }
+    e
+};
+
+/// The evaluator and its scratch memory (about 2.6 KiB), reused from tick to tick.
 ///
 /// Keep one per agent, in a `static` on the car, so the linker accounts for it.
 #[derive(Clone, Debug)]
 pub struct Evaluator {
     /// Scan points in the car frame.
     points: [[f32; 2]; SCAN_BEAMS],
-    /// Per distinct sample: clipped clearance (obstacles, then one class at a time).
-    clearance: [f32; UNIQUE_SAMPLES],
+    /// Per distinct sample: clipped clearance (obstacles, then one class at a time). A power of
+    /// two long, so that indexing with a mask needs no bounds check.
+    clearance: [f32; SCRATCH],
     /// Per distinct sample: whether it collides.
-    collides: [u64; COLLIDE_WORDS],
+    collides: [u32; COLLIDE_WORDS],
 }
 
 impl Default for Evaluator {
@@ -117,13 +159,24 @@ impl Default for Evaluator {
     }
 }
 
-/// Distance from `p` to the disc `(cx, cy, r)`, 0 inside.
+/// Largest relative error of [`sqrt`] on the squared distances the evaluator takes (all `f32` in
+/// `[f32::MIN_POSITIVE, 1e4]`, checked exhaustively by `cargo test -p firmware-core --release --
+/// --ignored sqrt_exhaustive`; measured 2.8e-7).
+pub const SQRT_RELATIVE_ERROR: f32 = 3.0e-7;
+
+/// Square root of a squared distance: a bit-level seed and two Newton steps, 8 FPU instructions
+/// where `libm`'s correctly rounded `sqrtf` takes about 70 integer ones on a Cortex-M4 (whose
+/// `vsqrt` stable Rust cannot reach without `unsafe`). Relative error at most
+/// [`SQRT_RELATIVE_ERROR`]; the same operations, so the same bits, on the host and the car.
 #[inline]
-fn disc_distance(p: [f32; 2], cx: f32, cy: f32, r: f32) -> f32 {
-    let dx = p[0] - cx;
-    let dy = p[1] - cy;
-    let d = libm::sqrtf(dx * dx + dy * dy) - r;
-    if d > 0.0 { d } else { 0.0 }
+pub fn sqrt(x: f32) -> f32 {
+    if x.is_nan() || x < f32::MIN_POSITIVE {
+        // 0, subnormals (never produced by the geometry here) and NaN take the exact path.
+        return libm::sqrtf(x);
+    }
+    let mut y = f32::from_bits(0x1fbb_4f2e_u32.wrapping_add(x.to_bits() >> 1));
+    y = 0.5 * (y + x / y);
+    0.5 * (y + x / y)
 }
 
 impl Evaluator {
@@ -131,7 +184,7 @@ impl Evaluator {
     pub const fn new() -> Self {
         Self {
             points: [[0.0; 2]; SCAN_BEAMS],
-            clearance: [0.0; UNIQUE_SAMPLES],
+            clearance: [0.0; SCRATCH],
             collides: [0; COLLIDE_WORDS],
         }
     }
@@ -148,14 +201,15 @@ impl Evaluator {
         let mut allowed = ActionMask::NONE;
         let rows = out.rows_mut();
         for (a, row) in rows.iter_mut().enumerate() {
+            let (samples, scale) = samples_of(a);
             let mut sum = 0.0f32;
             let mut hit = false;
-            for &u in &SAMPLE_OF[a] {
-                let u = u as usize;
+            for &u in samples {
+                let u = u as usize & (SCRATCH - 1);
                 sum += self.clearance[u];
-                hit |= self.collides[u / 64] >> (u % 64) & 1 == 1;
+                hit |= self.collides[u >> 5] >> (u & 31) & 1 == 1;
             }
-            row[Feature::Obstacles.index()] = sum / OBSTACLE_CLIP;
+            row[Feature::Obstacles.index()] = sum * scale / OBSTACLE_CLIP;
             if !hit && let Some(action) = ActionIndex::new(a) {
                 allowed.insert(action);
             }
@@ -169,29 +223,72 @@ impl Evaluator {
 
     /// Clipped obstacle clearance and collision of every distinct sample.
     fn obstacles(&mut self, obs: &Observation) {
-        // Beams that may come within the clip of some sample: range below the farthest sample's
-        // distance plus the clip. In open space this is empty and the loop below does nothing.
-        let mut near = 0u64;
+        let ranges = &obs.scan.ranges;
         for j in 0..SCAN_BEAMS {
-            let r = obs.scan.ranges[j];
-            self.points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
-            if r < MAX_SAMPLE_RHO + OBSTACLE_CLIP + REACH_MARGIN {
-                near |= 1 << j;
-            }
+            self.points[j] = [ranges[j] * BEAM_COS[j], ranges[j] * BEAM_SIN[j]];
         }
         self.collides = [0; COLLIDE_WORDS];
         let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
         let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
-        for u in 0..UNIQUE_SAMPLES {
+        // Beams binned by range: bin b holds the beams with range in [b·w, (b+1)·w), w = BIN_WIDTH.
+        // Only ranges below the farthest sample's ρ + clip can matter; longer beams are left out.
+        let mut bins = [[0u32; 2]; RANGE_BINS];
+        // Beams shorter than the clip: candidates for every sample, whatever their bearing (the
+        // compile-time windows cover only bearings within 90° of a sample's).
+        let (mut close_lo, mut close_hi) = (0u32, 0u32);
+        for (j, &r) in ranges.iter().enumerate() {
+            let b = (r * (1.0 / BIN_WIDTH)) as usize;
+            if b < RANGE_BINS {
+                bins[b][j >> 5] |= 1 << (j & 31);
+            }
+            if r < OBSTACLE_CLIP + REACH_MARGIN {
+                if j < 32 {
+                    close_lo |= 1 << j;
+                } else {
+                    close_hi |= 1 << (j & 31);
+                }
+            }
+        }
+        if bins.iter().all(|b| b[0] | b[1] == 0) {
+            // No beam within reach of any sample: every clearance is the clip.
+            self.clearance = [OBSTACLE_CLIP; SCRATCH];
+            return;
+        }
+        // Samples by increasing ρ: `upper` holds the bins that may hold a beam shorter than
+        // ρ + clip, `lower` the bins whose beams are all at most ρ − clip; both only grow. A bin
+        // joins `upper` as soon as its lower edge is below ρ + clip and `lower` only once its upper
+        // edge is at most ρ − clip, so the candidates are a superset of the beams that can matter:
+        // the binning costs some extra distance tests, never a wrong result.
+        let (mut upper_lo, mut upper_hi, mut lower_lo, mut lower_hi) = (0u32, 0u32, 0u32, 0u32);
+        let (mut hi, mut lo) = (0usize, 0usize);
+        for &u in &SAMPLES_BY_RHO {
+            let u = u as usize;
+            let rho = SAMPLE_RHO[u];
+            let far = rho + OBSTACLE_CLIP + REACH_MARGIN;
+            while hi < RANGE_BINS && BIN_EDGES[hi] < far {
+                upper_lo |= bins[hi][0];
+                upper_hi |= bins[hi][1];
+                hi += 1;
+            }
+            let near = rho - OBSTACLE_CLIP - REACH_MARGIN;
+            while lo < RANGE_BINS && BIN_EDGES[lo + 1] <= near {
+                lower_lo |= bins[lo][0];
+                lower_hi |= bins[lo][1];
+                lo += 1;
+            }
+            let window = SAMPLE_WINDOW[u];
+            let cand_lo = (window as u32 | close_lo) & upper_lo & !lower_lo;
+            let cand_hi = ((window >> 32) as u32 | close_hi) & upper_hi & !lower_hi;
+            if cand_lo | cand_hi == 0 {
+                self.clearance[u & (SCRATCH - 1)] = OBSTACLE_CLIP;
+                continue;
+            }
             let [sx, sy] = SAMPLE_POINTS[u];
-            // Beams beyond ρ + clip cannot come within the clip either.
-            let reach = SAMPLE_RHO[u] + OBSTACLE_CLIP + REACH_MARGIN;
             let mut best = clip2;
-            let mut beams = SAMPLE_WINDOW[u] & near;
-            while beams != 0 {
-                let j = beams.trailing_zeros() as usize;
-                beams &= beams - 1;
-                if obs.scan.ranges[j] < reach {
+            for (mut beams, base) in [(cand_lo, 0), (cand_hi, 32)] {
+                while beams != 0 {
+                    let j = (beams.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
+                    beams &= beams - 1;
                     let dx = self.points[j][0] - sx;
                     let dy = self.points[j][1] - sy;
                     let d2 = dx * dx + dy * dy;
@@ -200,13 +297,13 @@ impl Evaluator {
                     }
                 }
             }
-            self.clearance[u] = if best < clip2 {
-                libm::sqrtf(best)
+            self.clearance[u & (SCRATCH - 1)] = if best < clip2 {
+                sqrt(best).min(OBSTACLE_CLIP)
             } else {
                 OBSTACLE_CLIP
             };
             if best < collide2 {
-                self.collides[u / 64] |= 1 << (u % 64);
+                self.collides[(u >> 5) & (COLLIDE_WORDS - 1)] |= 1 << (u & 31);
             }
         }
     }
@@ -219,33 +316,52 @@ impl Evaluator {
         rows: &mut [Features; MAX_ACTIONS],
     ) {
         let f = class.feature().index();
-        let mut any = false;
-        for u in 0..UNIQUE_SAMPLES {
-            let mut best = SEMANTIC_CLIP;
-            for o in obs.objects.iter().filter(|o| o.class == class) {
-                any = true;
-                let d = disc_distance(SAMPLE_POINTS[u], o.x, o.y, o.radius);
-                if d < best {
-                    best = d;
-                }
+        if !obs.objects.iter().any(|o| o.class == class) {
+            for row in rows.iter_mut() {
+                row[f] = SAMPLES as f32;
             }
-            self.clearance[u] = best;
-            if !any {
-                break;
+            return;
+        }
+        self.clearance = [SEMANTIC_CLIP; SCRATCH];
+        for o in obs.objects.iter().filter(|o| o.class == class) {
+            // A sample farther than clip + r from the centre reads the clip for this object:
+            // tested on squares, so the root is taken only where it matters. An object whose
+            // disc is farther than that from every sample is skipped whole.
+            let reach = SEMANTIC_CLIP + o.radius + REACH_MARGIN;
+            let reach2 = reach * reach;
+            let whole = MAX_SAMPLE_RHO + reach;
+            if o.x * o.x + o.y * o.y >= whole * whole {
+                continue;
+            }
+            for (c, &[sx, sy]) in self.clearance.iter_mut().zip(SAMPLE_POINTS.iter()) {
+                let (dx, dy) = (sx - o.x, sy - o.y);
+                let d2 = dx * dx + dy * dy;
+                if d2 < reach2 {
+                    let d = sqrt(d2) - o.radius;
+                    let d = if d > 0.0 { d } else { 0.0 };
+                    if d < *c {
+                        *c = d;
+                    }
+                }
             }
         }
         for (a, row) in rows.iter_mut().enumerate() {
-            row[f] = if any {
-                let mut sum = 0.0f32;
-                for &u in &SAMPLE_OF[a] {
-                    sum += self.clearance[u as usize];
-                }
-                sum / SEMANTIC_CLIP
-            } else {
-                SAMPLES as f32
-            };
+            let (samples, scale) = samples_of(a);
+            let mut sum = 0.0f32;
+            for &u in samples {
+                sum += self.clearance[u as usize & (SCRATCH - 1)];
+            }
+            row[f] = sum * scale / SEMANTIC_CLIP;
         }
     }
+}
+
+/// The distinct-sample indices of trajectory `a`, and the factor that scales their sum to ten
+/// samples (1 for cruise, 2 for creep: exact in floating point).
+#[inline]
+fn samples_of(a: usize) -> (&'static [u16], f32) {
+    let n = TRAJECTORIES[a].samples().len();
+    (&SAMPLE_OF[a][..n], (SAMPLES / n) as f32)
 }
 
 /// Path error and lateral offset of every trajectory's end.
@@ -268,4 +384,61 @@ fn path_and_side(obs: &Observation, rows: &mut [Features; MAX_ACTIONS]) {
 /// exactly as the evaluator uses them.
 pub fn beam_direction(j: usize) -> Option<(f32, f32)> {
     (j < SCAN_BEAMS).then(|| (BEAM_COS[j], BEAM_SIN[j]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(x: f32) {
+        let exact = (x as f64).sqrt();
+        let err = ((sqrt(x) as f64 - exact) / exact).abs();
+        assert!(
+            err <= SQRT_RELATIVE_ERROR as f64,
+            "sqrt({x:e}): relative error {err:e}"
+        );
+    }
+
+    #[test]
+    fn sqrt_is_within_its_bound_on_a_dense_sample() {
+        let (first, last) = (f32::MIN_POSITIVE.to_bits(), 1.0e4f32.to_bits());
+        let mut b = first;
+        while b <= last {
+            check(f32::from_bits(b));
+            b += 997; // about 1.1 million points spread over every binade
+        }
+        for x in [
+            f32::MIN_POSITIVE,
+            1.0,
+            2.0,
+            0.25,
+            0.0625,
+            1.0e4,
+            0.5 * 0.5,
+            0.25 * 0.25,
+        ] {
+            check(x);
+        }
+        assert_eq!(sqrt(0.0), 0.0);
+        assert_eq!(
+            sqrt(1.0e-40),
+            libm::sqrtf(1.0e-40),
+            "subnormals take the exact path"
+        );
+    }
+
+    /// Every f32 the evaluator can take a root of: `cargo test -p firmware-core --release --lib
+    /// -- --ignored sqrt_exhaustive` (about ten seconds).
+    #[test]
+    #[ignore]
+    fn sqrt_exhaustive() {
+        let mut worst = 0.0f64;
+        for b in f32::MIN_POSITIVE.to_bits()..=1.0e4f32.to_bits() {
+            let x = f32::from_bits(b);
+            let exact = (x as f64).sqrt();
+            worst = worst.max(((sqrt(x) as f64 - exact) / exact).abs());
+        }
+        println!("largest relative error {worst:e}");
+        assert!(worst <= SQRT_RELATIVE_ERROR as f64);
+    }
 }

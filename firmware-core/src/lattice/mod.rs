@@ -13,7 +13,8 @@
 //!
 //! `κ_max = tan(0.30 rad) / 0.29 m ≈ 1.067 /m` (see [`MAX_PLANNING_STEERING`]). Each trajectory is
 //! sampled at [`SAMPLES`] poses evenly spaced along its length (every 0.1 m for cruise, every
-//! 0.05 m for creep), the last one at its end.
+//! 0.05 m for creep), the last one at its end, for the tracking controller; clearances are measured
+//! every 0.1 m of arc ([`Trajectory::samples`]).
 //!
 //! Indices are ordered gentlest first, each left-turning shape followed by its mirror image:
 //! action 0 is the straight cruise trajectory, so a zero weight vector (all scores tie, the
@@ -88,9 +89,8 @@ pub struct Trajectory {
     pub speed: f32,
     /// [`SAMPLES`] poses evenly spaced along it, the last at its end.
     pub poses: [Pose; SAMPLES],
-    /// The centre of the car's footprint at each pose ([`FOOTPRINT_CENTER_OFFSET`] ahead of it):
-    /// the points clearances and collisions are measured from, `[x, y]`.
-    pub centers: [[f32; 2]; SAMPLES],
+    sample_points: [[f32; 2]; SAMPLES],
+    sample_count: u8,
     mirror: u8,
 }
 
@@ -98,6 +98,13 @@ impl Trajectory {
     /// Total length (m).
     pub fn length(&self) -> f32 {
         self.segments[0].length + self.segments[1].length
+    }
+
+    /// The points clearances and collisions are measured from, `[x, y]`: the centre of the car's
+    /// footprint ([`FOOTPRINT_CENTER_OFFSET`] ahead of the rear axle) every [`SAMPLE_SPACING`] of
+    /// arc, the last at the end. Ten on a cruise trajectory, five on a creep one.
+    pub fn samples(&self) -> &[[f32; 2]] {
+        &self.sample_points[..(self.sample_count as usize).clamp(1, SAMPLES)]
     }
 
     /// The last pose.
@@ -218,10 +225,17 @@ mod tests {
     #[test]
     fn sample_tables_are_consistent() {
         for (a, t) in all() {
-            for (k, &u) in SAMPLE_OF[a.get()].iter().enumerate() {
-                let p = t.poses[k];
+            let n = t.samples().len();
+            assert_eq!(n, if t.family == Family::Cruise { 10 } else { 5 });
+            for (k, &u) in SAMPLE_OF[a.get()][..n].iter().enumerate() {
+                // Sample k sits (k + 1) · 0.1 m along the trajectory: pose 2k + 1 of a creep one.
+                let p = if t.family == Family::Cruise {
+                    t.poses[k]
+                } else {
+                    t.poses[2 * k + 1]
+                };
                 let [x, y] = SAMPLE_POINTS[u as usize];
-                assert_eq!([x, y], t.centers[k]);
+                assert_eq!([x, y], t.samples()[k]);
                 let cx = p.x + FOOTPRINT_CENTER_OFFSET * libm::cosf(p.theta);
                 let cy = p.y + FOOTPRINT_CENTER_OFFSET * libm::sinf(p.theta);
                 assert!((x - cx).abs() < 1e-5 && (y - cy).abs() < 1e-5, "{a}/{k}");
@@ -230,8 +244,9 @@ mod tests {
         let mut pairs = 0;
         for (w, rho) in SAMPLE_WINDOW.iter().zip(SAMPLE_RHO.iter()) {
             assert!(*w != 0 && *rho <= MAX_SAMPLE_RHO);
+            // Near samples take the half plane around their bearing (32 or 33 beams).
             if *rho <= OBSTACLE_CLIP {
-                assert_eq!(*w, u64::MAX);
+                assert!((32..=34).contains(&w.count_ones()), "{w:#x}");
             }
             pairs += w.count_ones() as usize;
         }

@@ -13,8 +13,14 @@ pub const WHEELBASE: f32 = 0.29;
 /// follow every trajectory of the lattice.
 pub const MAX_PLANNING_STEERING: f32 = 0.30;
 
-/// Number of poses sampled along every trajectory.
+/// Number of poses sampled along every trajectory (every 0.1 m of a cruise trajectory, every
+/// 0.05 m of a creep one), for the tracking controller; also the largest number of clearance
+/// samples of a trajectory.
 pub const SAMPLES: usize = 10;
+
+/// Clearances are measured every this much arc length (m), at the footprint's centre: 10 samples
+/// on a cruise trajectory, 5 on a creep one.
+pub const SAMPLE_SPACING: f32 = 0.1;
 
 /// Length of each of the two constant-curvature segments of a cruise trajectory (m).
 pub const CRUISE_SEGMENT_LENGTH: f32 = 0.5;

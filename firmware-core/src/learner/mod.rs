@@ -187,7 +187,7 @@ pub struct Ogd {
 
 impl Ogd {
     /// Constant steps `η`.
-    pub fn constant(params: &ValidLearnerParams) -> Self {
+    pub const fn constant(params: &ValidLearnerParams) -> Self {
         let p = params.get();
         Self {
             w: p.initial,
@@ -199,7 +199,7 @@ impl Ogd {
     }
 
     /// Steps `η / √t`.
-    pub fn decaying(params: &ValidLearnerParams) -> Self {
+    pub const fn decaying(params: &ValidLearnerParams) -> Self {
         Self {
             decaying: true,
             ..Self::constant(params)
@@ -273,7 +273,7 @@ pub struct AveragedOgd {
 
 impl AveragedOgd {
     /// From checked parameters.
-    pub fn new(params: &ValidLearnerParams) -> Self {
+    pub const fn new(params: &ValidLearnerParams) -> Self {
         let ogd = Ogd::constant(params);
         Self {
             average: ogd.w,
@@ -325,7 +325,7 @@ pub struct AdaGrad {
 
 impl AdaGrad {
     /// From checked parameters.
-    pub fn new(params: &ValidLearnerParams) -> Self {
+    pub const fn new(params: &ValidLearnerParams) -> Self {
         let p = params.get();
         Self {
             w: p.initial,
@@ -384,7 +384,7 @@ pub struct Coactive {
 
 impl Coactive {
     /// From checked parameters.
-    pub fn new(params: &ValidLearnerParams) -> Self {
+    pub const fn new(params: &ValidLearnerParams) -> Self {
         Self {
             ogd: Ogd::constant(params),
         }
@@ -427,7 +427,7 @@ pub struct Learner {
 
 impl Learner {
     /// A fresh learner at its initial weights.
-    pub fn new(params: ValidLearnerParams) -> Self {
+    pub const fn new(params: ValidLearnerParams) -> Self {
         let inner = match params.get().kind {
             LearnerKind::Ogd => Inner::Ogd(Ogd::constant(&params)),
             LearnerKind::OgdDecaying => Inner::Ogd(Ogd::decaying(&params)),

@@ -180,6 +180,10 @@ impl Default for LearnerParams {
 pub struct ValidLearnerParams(LearnerParams);
 
 impl ValidLearnerParams {
+    /// [`LearnerParams::default`], valid by construction (checked in the tests); usable in
+    /// `const` and `static` initialisers.
+    pub const DEFAULT: Self = Self(LearnerParams::new(LearnerKind::AveragedOgd));
+
     /// The checked parameters.
     #[inline]
     pub const fn get(&self) -> &LearnerParams {

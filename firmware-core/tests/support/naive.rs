@@ -30,7 +30,8 @@ pub(crate) fn evaluate(obs: &Observation) -> Option<NaiveOutput> {
         let t = trajectory(ActionIndex::new(a).unwrap());
         let mut obstacle_sum = 0.0f32;
         let mut class_sum = [0.0f32; 3];
-        for c in &t.centers {
+        let scale = (10 / t.samples().len()) as f32;
+        for c in t.samples() {
             // Nearest scan point, brute force.
             let mut d2min = f32::INFINITY;
             for p in &points {
@@ -53,11 +54,11 @@ pub(crate) fn evaluate(obs: &Observation) -> Option<NaiveOutput> {
             }
         }
         let f = &mut features[a];
-        f[Feature::Obstacles.index()] = obstacle_sum / OBSTACLE_CLIP;
+        f[Feature::Obstacles.index()] = obstacle_sum * scale / OBSTACLE_CLIP;
         for (k, class) in SemanticClass::ALL.iter().enumerate() {
             let any = obs.objects.iter().any(|o| o.class == *class);
             f[class.feature().index()] = if any {
-                class_sum[k] / SEMANTIC_CLIP
+                class_sum[k] * scale / SEMANTIC_CLIP
             } else {
                 10.0
             };
