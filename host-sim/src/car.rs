@@ -319,6 +319,9 @@ mod tests {
         let (wx, wy) = pose.to_world(0.3, -0.2);
         let (lx, ly) = pose.to_local(wx, wy);
         assert!((lx - 0.3).abs() < 1e-12 && (ly + 0.2).abs() < 1e-12);
-        assert!((wrap_angle(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
+        assert!(
+            (wrap_angle(3.0 * std::f64::consts::PI).abs() - std::f64::consts::PI).abs() < 1e-12
+        );
+        assert!((wrap_angle(-7.0) - (-7.0 + 2.0 * std::f64::consts::PI)).abs() < 1e-12);
     }
 }

@@ -82,17 +82,17 @@ struct RunArgs {
     seed: u64,
     /// The teacher corrects when its perceived latent loss of the learner's action exceeds
     /// this (default: the scenario's, 1.0 unless it says otherwise).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     threshold: Option<f32>,
     /// Standard deviation of the Gaussian noise on every latent loss the teacher perceives
     /// (default: the scenario's, 0 unless it says otherwise).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     noise: Option<f32>,
     /// Online learner: ogd, ogd-decaying, averaged-ogd (default), adagrad or coactive.
     #[arg(long, default_value = "averaged-ogd", value_parser = parse_kind)]
     learner: LearnerKind,
     /// Step size (default: the learner's own: 0.01 for the OGD family, 0.1 AdaGrad, 1 coactive).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     step: Option<f32>,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out")]

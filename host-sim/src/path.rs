@@ -220,9 +220,10 @@ mod tests {
         assert_eq!(p.wrap(-1.0), 15.0);
         assert_eq!(p.delta(15.5, 0.5), 1.0);
         assert_eq!(p.delta(0.5, 15.5), -1.0);
-        // Near-projection stays on the window even when another part is nearer.
-        let (s, _) = p.project_near((3.9, 2.0), 1.0, 1.0, 2.0);
-        assert!(s <= 3.0, "{s}");
+        // Near-projection stays on the segments of the window even when another part is nearer.
+        assert_eq!(p.project((3.9, 2.0)).0, 6.0);
+        let (s, d) = p.project_near((3.9, 2.0), 1.0, 1.0, 2.0);
+        assert_eq!((s, d), (3.9, 2.0));
         let (x, y, h) = p.point_at(15.0);
         assert_eq!((x, y), (0.0, 1.0));
         assert!((h + std::f64::consts::FRAC_PI_2).abs() < 1e-12);

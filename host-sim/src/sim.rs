@@ -302,3 +302,177 @@ pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
     }
     list
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::OccupancyGrid;
+    use crate::path::RefPath;
+    use crate::scenario::{Shape, WorldObject};
+    use crate::teacher::{TeacherSpec, preset};
+    use firmware_core::observation::SemanticClass;
+
+    /// A 10 m × 6 m room (0.05 m cells) with a wall across x = 6 from y = 0 to y = 4, a path
+    /// along y = 1 and `objects`.
+    fn world(objects: Vec<WorldObject>) -> Scenario {
+        let map = OccupancyGrid::from_fn(200, 120, 0.05, [0.0, 0.0, 0.0], |c, r| {
+            c == 0 || r == 0 || c == 199 || r == 119 || (c == 120 && r < 80)
+        });
+        Scenario {
+            name: "room".into(),
+            description: String::new(),
+            source: Default::default(),
+            map: Arc::new(map),
+            path: RefPath::new(vec![(1.0, 1.0), (5.0, 1.0)], false).unwrap(),
+            start: Pose {
+                x: 1.0,
+                y: 1.0,
+                theta: 0.0,
+            },
+            objects,
+            teacher: TeacherSpec::from_preset(preset("doors").unwrap()),
+        }
+    }
+
+    fn chair(x: f64, y: f64) -> WorldObject {
+        WorldObject {
+            class: SemanticClass::Chair,
+            x,
+            y,
+            shape: Shape::Disc { radius: 0.2 },
+        }
+    }
+
+    #[test]
+    fn the_scan_sees_the_walls_in_the_car_frame() {
+        let s = world(vec![]);
+        let car = CarState::at(Pose {
+            x: 2.0,
+            y: 1.0,
+            theta: 0.0,
+        });
+        let obs = observe(&s, &car, 1.0);
+        obs.validate().unwrap();
+        for j in 0..SCAN_BEAMS {
+            let b = beam_bearing(j) as f64;
+            let (c, sn) = (b.cos(), b.sin());
+            // Expected: the nearest of the walls x = 0.05, x = 6.0 (for y < 4), y = 0.05, y = 5.95.
+            let mut want = f64::INFINITY;
+            if c > 0.0 {
+                let t = (6.0 - 2.0) / c;
+                if 1.0 + t * sn < 4.0 {
+                    want = want.min(t);
+                }
+            }
+            if c < 0.0 {
+                want = want.min((0.05 - 2.0) / c);
+            }
+            if sn < 0.0 {
+                want = want.min((0.05 - 1.0) / sn);
+            }
+            if sn > 0.0 {
+                want = want.min((5.95 - 1.0) / sn);
+            }
+            let want = want.min(SCAN_MAX_RANGE as f64);
+            let got = obs.scan.ranges[j] as f64;
+            assert!((got - want).abs() < 0.08, "beam {j}: {got} vs {want}");
+        }
+        // The path reference is 1 m ahead along the path.
+        assert!((obs.reference.x - 1.0).abs() < 1e-6 && obs.reference.y.abs() < 1e-6);
+        assert_eq!(obs.reference.heading, 0.0);
+    }
+
+    #[test]
+    fn detections_need_range_and_line_of_sight_and_keep_the_nearest_eight() {
+        // Behind the wall at x = 6 (y < 4): invisible. Beyond 5 m: invisible.
+        let mut objects = vec![chair(7.0, 1.0), chair(1.5, 5.9 - 0.2)];
+        for k in 0..9 {
+            objects.push(chair(2.5 + 0.3 * k as f64, 2.5));
+        }
+        let s = world(objects);
+        let seen = detect(
+            &s,
+            Pose {
+                x: 2.0,
+                y: 1.0,
+                theta: std::f64::consts::FRAC_PI_2,
+            },
+        );
+        assert_eq!(seen.len(), MAX_OBJECTS);
+        // Nearest first; in the car frame (facing +y), x forward = world y, y left = −world x.
+        let d: Vec<f32> = seen
+            .iter()
+            .map(|o| (o.x * o.x + o.y * o.y).sqrt())
+            .collect();
+        assert!(d.windows(2).all(|w| w[0] <= w[1]), "{d:?}");
+        assert!((seen[0].x - 1.5).abs() < 1e-6 && (seen[0].y + 0.5).abs() < 1e-6);
+        // Only the row of nine, minus its farthest one.
+        assert!(seen.iter().all(|o| (o.x - 1.5).abs() < 1e-6));
+        let behind_wall = detect(
+            &s,
+            Pose {
+                x: 5.5,
+                y: 1.0,
+                theta: 0.0,
+            },
+        );
+        assert!(
+            behind_wall.iter().all(|o| o.x < 1.0),
+            "the chair behind the wall is hidden"
+        );
+        let beyond = world(vec![chair(8.0, 5.0)]);
+        assert!(
+            detect(
+                &beyond,
+                Pose {
+                    x: 1.0,
+                    y: 1.0,
+                    theta: 0.0
+                }
+            )
+            .is_empty()
+        );
+    }
+
+    #[test]
+    fn driving_into_a_wall_resets_and_blocked_resets() {
+        let mut e = Episode::new(Arc::new(world(vec![])));
+        // Straight ahead along y = 1: the wall at x = 6 comes after about 4.5 m of driving.
+        let mut reset = None;
+        for _ in 0..100 {
+            let r = e.drive(ActionIndex::new(0));
+            if r.reset.is_some() {
+                reset = r.reset;
+                break;
+            }
+        }
+        assert_eq!(
+            reset,
+            Some(ResetReason::PathEnd),
+            "the open path ends at x = 5 first"
+        );
+        assert_eq!(e.laps(), 1);
+        let mut e = Episode::new(Arc::new(world(vec![])));
+        // Circling right from y = 1 hits the south wall (y = 0.05) within a turn.
+        let right = ActionIndex::new(8).unwrap();
+        assert!(firmware_core::lattice::trajectory(right).end().y < 0.0);
+        let mut got = None;
+        for _ in 0..50 {
+            if let Some(r) = e.drive(Some(right)).reset {
+                got = Some(r);
+                break;
+            }
+        }
+        assert_eq!(got, Some(ResetReason::Collision));
+        assert_eq!(
+            e.car().pose,
+            Pose {
+                x: 1.0,
+                y: 1.0,
+                theta: 0.0
+            },
+            "back at the start"
+        );
+        assert_eq!(e.drive(None).reset, Some(ResetReason::Blocked));
+    }
+}
