@@ -170,6 +170,8 @@ impl CarState {
 pub struct Tracker {
     /// Polyline: the start pose then the trajectory's poses, world frame.
     points: Vec<(f64, f64)>,
+    /// Length of each polyline segment.
+    lens: Vec<f64>,
     /// Heading at the end, for the straight extension.
     end_heading: f64,
     speed: f64,
@@ -186,8 +188,16 @@ impl Tracker {
         for p in &trajectory.poses {
             points.push(origin.to_world(p.x as f64, p.y as f64));
         }
+        let lens = points
+            .windows(2)
+            .map(|w| {
+                let (dx, dy) = (w[1].0 - w[0].0, w[1].1 - w[0].1);
+                libm::sqrt(dx * dx + dy * dy)
+            })
+            .collect();
         Self {
             points,
+            lens,
             end_heading: origin.theta + trajectory.end().theta as f64,
             speed: trajectory.speed as f64,
         }
@@ -203,13 +213,12 @@ impl Tracker {
         // Project the rear axle onto the polyline: (segment, arc length).
         let mut best = (0usize, 0.0f64, f64::INFINITY);
         let mut s0 = 0.0;
-        let mut lens = Vec::with_capacity(self.points.len());
+        let lens = &self.lens;
         for i in 0..self.points.len() - 1 {
             let (a, b) = (self.points[i], self.points[i + 1]);
             let (dx, dy) = (b.0 - a.0, b.1 - a.1);
             let len2 = dx * dx + dy * dy;
-            let len = libm::sqrt(len2);
-            lens.push(len);
+            let len = lens[i];
             let t = if len2 > 0.0 {
                 (((pose.x - a.0) * dx + (pose.y - a.1) * dy) / len2).clamp(0.0, 1.0)
             } else {

@@ -762,7 +762,7 @@ mod tests {
         assert_eq!(meta.classify(255.0, 255.0), Cell::Free);
         assert_eq!(meta.classify(205.0, 255.0), Cell::Unknown);
         assert_eq!(meta.classify(255.0, 0.0), Cell::Unknown);
-        assert_eq!(meta.negate, false);
+        assert!(!meta.negate);
         assert_eq!(meta.mode, MapMode::Trinary);
     }
 }
