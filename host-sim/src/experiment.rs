@@ -27,6 +27,29 @@
 //!   learner is then frozen for the run (no feedback reaches it) and scored like the others;
 //! * `teacher`: the teacher's own policy drives (learner weights = teacher weights, frozen): the
 //!   reference the learners are measured against, and the lap test of every household.
+//!
+//! # Measured (5000 steps, seed 0, threshold 1.0, noise 0)
+//!
+//! Mean latent loss of the first → last 500 steps (corrections in all), with the firmware's
+//! default learner (averaged OGD, η = 0.01) and the paper's (plain OGD, η = 0.01):
+//!
+//! | household | action, avg | action, OGD | preference, avg | preference, OGD | semantic, avg | semantic, OGD | bc |
+//! |---|---|---|---|---|---|---|---|
+//! | doors | 0.301 → 0.056 (51) | 0.403 → 0.019 (74) | 1.414 → 0.499 (1297) | 0.557 → 0.028 (207) | 3.678 → 2.775 (1978) | 0.572 → 0.032 (62) | 0.004 → 0.003 |
+//! | stairs-right | 0.429 → 0.164 (45) | 0.233 → 0.054 (20) | 0.577 → 0.019 (40) | 0.645 → 0.025 (62) | 1.882 → 0.033 (216) | 0.215 → 0.036 (28) | 0.009 → 0.019 |
+//! | stairs-chairs | 0.392 → 0.083 (66) | 0.385 → 0.095 (64) | 1.236 → 0.033 (341) | 1.000 → 0.062 (192) | 2.795 → 3.929 (3647) | 0.648 → 0.023 (94) | 0.014 → 0.011 |
+//! | basement | 0.122 → 0.005 (22) | 0.274 → 0.001 (41) | 1.405 → 0.139 (430) | 0.373 → 0.072 (96) | 1.029 → 3.851 (1391) | 0.160 → 0.040 (102) | 0.000 → 0.001 |
+//!
+//! Plain OGD learns from every kind of feedback on every household. Averaged OGD learns from
+//! action and preference feedback (with more corrections for preference) but **not from semantic
+//! feedback** on three of the four: its subgradient is taken at the raw iterate, and the semantic
+//! pseudo-loss is flat over every action that beats the learner's on the stated features, so `â`
+//! is the raw iterate's own favourite among them; the step then reinforces the iterate's biases
+//! (on doors it grew a weight on `right`, a feature the teacher never mentions) rather than
+//! correcting the averaged policy that acted. Under noise the order flips: on doors with action
+//! feedback and σ = 1 (seed 1), averaged OGD reaches 0.393 → 0.020 (906 corrections), plain OGD
+//! 0.557 → 0.213 (1219). BC fits the teacher's lap almost exactly: 50 samples of a noiseless
+//! teacher in a world this regular pin its policy down.
 
 use std::io::Write;
 use std::sync::Arc;

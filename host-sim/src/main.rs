@@ -51,6 +51,18 @@ enum Command {
         #[arg(long, default_value = "lattice.svg")]
         out: PathBuf,
     },
+    /// Draw a scenario's map, path and objects into a PNG, optionally with the poses of a run.
+    Draw {
+        /// Scenario name or file.
+        #[arg(long, default_value = "doors")]
+        scenario: String,
+        /// A steps.csv of `host-sim run` whose poses to draw.
+        #[arg(long)]
+        run: Option<PathBuf>,
+        /// The PNG file to write.
+        #[arg(long, default_value = "scenario.png")]
+        out: PathBuf,
+    },
     /// Measure simulated steps per second of one run on one core.
     Bench {
         /// Scenario name or file.
@@ -230,7 +242,10 @@ fn run(args: &RunArgs) -> Result<()> {
 fn list() {
     println!("scenarios (--scenario NAME, or a path to your own .toml):");
     for s in registry::SCENARIOS {
-        println!("  {:<14} {}", s.name, s.description);
+        let length = registry::load_scenario(s.name)
+            .map(|scn| format!("{:6.1} m path", scn.path.length()))
+            .unwrap_or_else(|e| format!("(cannot load: {e})"));
+        println!("  {:<14} {length}  {}", s.name, s.description);
     }
     println!("teacher presets (weights: obstacles, door, stairs, chair, path, right):");
     for p in host_sim::teacher::PRESETS {
@@ -240,6 +255,17 @@ fn list() {
     for e in registry::EXPERIMENTS {
         println!("  {:<14} {}", e.name, e.description);
     }
+}
+
+fn draw(scenario: &str, run: Option<&Path>, out: &Path) -> Result<()> {
+    let s = registry::load_scenario(scenario)?;
+    let mut raster = host_sim::plot::Raster::of_scenario(&s);
+    if let Some(csv) = run {
+        raster.trace(&host_sim::plot::read_trace(csv)?);
+    }
+    raster.write_png(out)?;
+    println!("wrote {}", out.display());
+    Ok(())
 }
 
 fn bench(scenario: &str, steps: u32) -> Result<()> {
@@ -354,6 +380,7 @@ fn main() -> ExitCode {
             println!("wrote {}", out.display());
         }),
         Command::Bench { scenario, steps } => bench(scenario, *steps),
+        Command::Draw { scenario, run, out } => draw(scenario, run.as_deref(), out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -152,6 +152,16 @@ fn lattice_list_and_demo_still_work() {
     assert!(text.starts_with("<svg") && text.matches("<polyline").count() >= 64);
     let o = host_sim(&["list"]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("stairs-chairs"));
+    let png = tmp.path().join("doors.png");
+    let o = host_sim(&[
+        "draw",
+        "--scenario",
+        "doors",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read(&png).unwrap().starts_with(b"\x89PNG"));
     let o = host_sim(&["demo", "--steps", "300"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }

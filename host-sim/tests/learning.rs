@@ -56,3 +56,32 @@ fn behaviour_cloning_is_fitted_then_frozen() {
     assert_eq!(r.final_snapshot.state.average, bc.weights, "frozen");
     assert!(bc.weights.iter().any(|&w| w != 0.0));
 }
+
+/// With the paper's learner (plain OGD, η = 0.01) every kind of feedback teaches the doors task.
+/// (The firmware's default, averaged OGD, learns from action feedback above but not from semantic
+/// feedback on this household: see "Measured" in the `experiment` module's documentation.)
+#[test]
+fn preference_and_semantic_feedback_teach_the_paper_learner() {
+    let s = Arc::new(registry::load_scenario("doors").unwrap());
+    for kind in [FeedbackKind::Preference, FeedbackKind::Semantic] {
+        let config = RunConfig {
+            mode: Mode::Online(kind),
+            steps: 5_000,
+            learner: firmware_core::LearnerParams::paper(),
+            ..RunConfig::new(s.clone())
+        };
+        let r = experiment::run(&config).unwrap();
+        let (first, last) = (r.mean_loss(0..500), r.mean_loss(4_500..5_000));
+        println!(
+            "doors/{}/ogd: first 500 {first:.4}, last 500 {last:.4}, {} corrections, resets {:?}",
+            kind.name(),
+            r.corrections(),
+            r.resets
+        );
+        assert!(
+            last < first / 3.0,
+            "{}: first {first}, last {last}",
+            kind.name()
+        );
+    }
+}
