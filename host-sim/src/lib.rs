@@ -24,7 +24,7 @@
 //!   per-step records, CSV and summary.
 //! * [`registry`]: built-in scenarios and experiments by name; parallel runs.
 //! * [`households`]: the generator of the built-in household maps.
-//! * [`plot`]: the lattice drawing.
+//! * [`plot`]: drawings: the lattice (SVG), a scenario and a run's poses (PNG).
 //! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
 //!
 //! Every random choice takes a seed and no clock is read: the same configuration gives

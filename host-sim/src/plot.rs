@@ -1,4 +1,7 @@
-//! Drawings: the 64-trajectory lattice as an SVG (`host-sim lattice`).
+//! Drawings: the 64-trajectory lattice as an SVG (`host-sim lattice`), and a scenario's map with
+//! its path, objects and a run's poses as a PNG (`host-sim draw`, [`Raster`]).
+//!
+//! # The lattice drawing
 //!
 //! Cruise trajectories (actions 0–48, 1 m) are drawn in blue, creep trajectories (49–63,
 //! 0.5 m) in orange, from the rear axle at the origin, x forward (right in the picture), y left
