@@ -367,14 +367,16 @@ fn decode_pgm(bytes: &[u8], path: &Path) -> Result<Grey, MapError> {
     }
     let n = width * height;
     let scale = 255.0 / maxval as f64;
-    let mut value = Vec::with_capacity(n);
+    let mut value = Vec::new();
     if binary {
         pos += 1; // the single whitespace after maxval
         let wide = maxval > 255;
         let need = n * if wide { 2 } else { 1 };
+        // Check the length before allocating anything the header asks for.
         let data = bytes
             .get(pos..pos + need)
             .ok_or_else(|| image_err(path, format!("PGM data truncated: need {need} bytes")))?;
+        value.reserve_exact(n);
         if wide {
             value.extend(
                 data.chunks_exact(2)
@@ -384,6 +386,14 @@ fn decode_pgm(bytes: &[u8], path: &Path) -> Result<Grey, MapError> {
             value.extend(data.iter().map(|&b| b as f64 * scale));
         }
     } else {
+        // Every ASCII pixel takes at least one byte.
+        if bytes.len().saturating_sub(pos) < n {
+            return Err(image_err(
+                path,
+                format!("PGM data truncated: need {n} pixels"),
+            ));
+        }
+        value.reserve_exact(n);
         for _ in 0..n {
             let v = num("pixel", &mut pos)?;
             if v > maxval {
