@@ -592,3 +592,29 @@ pub fn run(config: &RunConfig) -> Result<RunReport> {
     let mut link = InProcessLink::new(config.learner)?;
     run_with(config, &mut link, &mut |_| {})
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv1a_matches_the_reference_vectors() {
+        assert_eq!(fnv1a(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    #[test]
+    fn modes_round_trip_their_names() {
+        for m in [
+            Mode::Online(FeedbackKind::Action),
+            Mode::Online(FeedbackKind::Preference),
+            Mode::Online(FeedbackKind::Semantic),
+            Mode::BehaviourCloning,
+            Mode::Teacher,
+        ] {
+            assert_eq!(Mode::from_name(m.name()), Some(m));
+        }
+        assert_eq!(Mode::from_name("shouting"), None);
+    }
+}
