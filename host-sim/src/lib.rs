@@ -1,14 +1,46 @@
 //! # host-sim: the world the learner is taught in
 //!
-//! The std side of the project (DESIGN section 6). It drives the `firmware-core` learner with
-//! programmatic teachers and records what happens.
+//! The std side of the project (DESIGN section 6): simulated households, the MuSHR car, the
+//! programmatic teachers of the paper's section 6, and the experiment loop that drives the
+//! `firmware-core` learner through them and records what happens.
 //!
-//! * [`synthetic`]: a seeded synthetic stream (random features for 64 actions, a hidden teacher)
-//!   for watching the learner learn without a world around it: the `host-sim demo` command.
+//! ```text
+//!  scenario (TOML) ──▶ map (map_server YAML + PGM/PNG), objects, path, start, teacher
+//!        │
+//!  Episode ──sense──▶ Observation ──CarLink::act──▶ Decision (learner's action)
+//!        ▲                 │
+//!        │                 └──Teacher::judge (same evaluator)──▶ latent loss, feedback?
+//!        │                                                  └──CarLink::feedback
+//!        └── drive one tick (bicycle + pure pursuit), collisions, resets, laps ──▶ StepRecord
+//! ```
 //!
-//! Every random choice takes a seed; the same seed gives bit-identical results.
+//! * [`map`]: occupancy grids in ROS `map_server` format, DDA ray casting.
+//! * [`path`]: the reference path (polyline, loop or open), projection and look-ahead.
+//! * [`scenario`]: scenario files (map, semantic objects, path, start, teacher), validated.
+//! * [`car`]: kinematic bicycle with MuSHR constants, footprint, pure-pursuit tracker.
+//! * [`sim`]: sensing (range scan, detections, path reference) and the episode (resets, laps).
+//! * [`teacher`]: programmatic teachers (presets, threshold, noise) and their feedback.
+//! * [`experiment`]: the run loop behind the [`experiment::CarLink`] trait, behaviour cloning,
+//!   per-step records, CSV and summary.
+//! * [`registry`]: built-in scenarios and experiments by name; parallel runs.
+//! * [`households`]: the generator of the built-in household maps.
+//! * [`plot`]: drawings: the lattice (SVG), a scenario and a run's poses (PNG).
+//! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
+//!
+//! Every random choice takes a seed and no clock is read: the same configuration gives
+//! bit-identical records.
 
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod car;
+pub mod experiment;
+pub mod households;
+pub mod map;
+pub mod path;
+pub mod plot;
+pub mod registry;
+pub mod scenario;
+pub mod sim;
 pub mod synthetic;
+pub mod teacher;

@@ -1,11 +1,18 @@
 //! `host-sim`: the command line of the simulator. `host-sim --help` lists the commands.
 
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Instant;
 
-use anyhow::Result;
+use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use firmware_core::{LearnerKind, LearnerParams};
+use host_sim::experiment::{self, InProcessLink, Mode, RunConfig};
+use host_sim::registry;
 use host_sim::synthetic::{self, SyntheticConfig};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -23,6 +30,85 @@ enum Command {
     /// Watch the learner learn from a synthetic programmatic teacher (no world: random features
     /// for 64 actions, hidden teacher weights). Prints the latent-loss curve and the corrections.
     Demo(DemoArgs),
+    /// Run one experiment: a learner taught by a programmatic teacher in a household.
+    ///
+    /// Writes DIR/steps.csv (one row per control tick: step, action, teacher_action,
+    /// latent_loss, corrected, corrections, collision, reset, lap, x, y, theta) and
+    /// DIR/summary.json (configuration, seed, final weights, totals, mean latent loss of the
+    /// first and last 10% of the steps, wall time).
+    Run(RunArgs),
+    /// List the built-in scenarios, teacher presets and experiments.
+    List,
+    /// Draw the built-in household maps into DIR (NAME.pgm + NAME.yaml, map_server format).
+    GenMaps {
+        /// Output folder.
+        #[arg(long, default_value = "host-sim/scenarios/maps")]
+        out: PathBuf,
+    },
+    /// Draw the 64 trajectories of the lattice into an SVG file.
+    Lattice {
+        /// The SVG file to write.
+        #[arg(long, default_value = "lattice.svg")]
+        out: PathBuf,
+    },
+    /// Draw a scenario's map, path and objects into a PNG, optionally with the poses of a run.
+    Draw {
+        /// Scenario name or file.
+        #[arg(long, default_value = "doors")]
+        scenario: String,
+        /// A steps.csv of `host-sim run` whose poses to draw.
+        #[arg(long)]
+        run: Option<PathBuf>,
+        /// The PNG file to write.
+        #[arg(long, default_value = "scenario.png")]
+        out: PathBuf,
+    },
+    /// Measure simulated steps per second of one run on one core.
+    Bench {
+        /// Scenario name or file.
+        #[arg(long, default_value = "doors")]
+        scenario: String,
+        /// Steps to simulate.
+        #[arg(long, default_value_t = 5_000)]
+        steps: u32,
+    },
+}
+
+#[derive(clap::Args, Debug)]
+struct RunArgs {
+    /// Built-in scenario (doors, stairs-right, stairs-chairs, basement; see `host-sim list`) or
+    /// the path of a scenario TOML file.
+    #[arg(long, default_value = "doors")]
+    scenario: String,
+    /// How the learner is taught: action (the teacher's action), preference (learner's action
+    /// vs a random one), semantic (statements such as "avoid doors"), bc (behaviour cloning on
+    /// 50 action samples of the teacher's own lap, then frozen), teacher (the teacher's own
+    /// policy drives, frozen).
+    #[arg(long, default_value = "action", value_parser = parse_mode)]
+    feedback: Mode,
+    /// Number of control ticks (0.1 s each).
+    #[arg(long, default_value_t = 5_000)]
+    steps: u32,
+    /// Seed of the teacher's noise and random queries; the same seed gives the same CSV bytes.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// The teacher corrects when its perceived latent loss of the learner's action exceeds
+    /// this (default: the scenario's, 1.0 unless it says otherwise).
+    #[arg(long, allow_negative_numbers = true)]
+    threshold: Option<f32>,
+    /// Standard deviation of the Gaussian noise on every latent loss the teacher perceives
+    /// (default: the scenario's, 0 unless it says otherwise).
+    #[arg(long, allow_negative_numbers = true)]
+    noise: Option<f32>,
+    /// Online learner: ogd, ogd-decaying, averaged-ogd (default), adagrad or coactive.
+    #[arg(long, default_value = "averaged-ogd", value_parser = parse_kind)]
+    learner: LearnerKind,
+    /// Step size (default: the learner's own: 0.01 for the OGD family, 0.1 AdaGrad, 1 coactive).
+    #[arg(long, allow_negative_numbers = true)]
+    step: Option<f32>,
+    /// Output folder (created if missing).
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
 }
 
 #[derive(clap::Args, Debug)]
@@ -58,6 +144,151 @@ fn parse_kind(s: &str) -> Result<LearnerKind, String> {
             names.join(", ")
         )
     })
+}
+
+fn parse_mode(s: &str) -> Result<Mode, String> {
+    Mode::from_name(s).ok_or_else(|| {
+        format!("unknown feedback '{s}', expected one of action, preference, semantic, bc, teacher")
+    })
+}
+
+fn run_config(args: &RunArgs) -> Result<RunConfig> {
+    let scenario = registry::load_scenario(&args.scenario)?;
+    let mut learner = LearnerParams::new(args.learner);
+    if let Some(step) = args.step {
+        learner = learner.with_step(step);
+    }
+    let config = RunConfig {
+        mode: args.feedback,
+        steps: args.steps,
+        seed: args.seed,
+        threshold: args.threshold,
+        noise: args.noise,
+        learner,
+        ..RunConfig::new(Arc::new(scenario))
+    };
+    config.check()?;
+    Ok(config)
+}
+
+fn prepare_out(dir: &Path) -> Result<()> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("output folder {}: cannot create", dir.display()))?;
+    let probe = dir.join(".host-sim-write-test");
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("output folder {}: not writable", dir.display()))?;
+    let _ = std::fs::remove_file(probe);
+    Ok(())
+}
+
+fn run(args: &RunArgs) -> Result<()> {
+    let config = run_config(args)?;
+    prepare_out(&args.out)?;
+    let bar = ProgressBar::with_draw_target(
+        Some(config.steps as u64),
+        if std::io::stderr().is_terminal() {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        },
+    );
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} steps ({per_sec}) {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let started = Instant::now();
+    let mut link = InProcessLink::new(config.learner)?;
+    let report = experiment::run_with(&config, &mut link, &mut |r| {
+        if r.step % 50 == 0 {
+            bar.set_position(r.step as u64);
+            bar.set_message(format!("{} corrections, {} laps", r.corrections, r.lap));
+        }
+    })?;
+    bar.finish_and_clear();
+    let wall = started.elapsed().as_secs_f64();
+    let csv = args.out.join("steps.csv");
+    std::fs::write(&csv, report.csv_bytes())
+        .with_context(|| format!("{}: cannot write", csv.display()))?;
+    let mut summary = report.summary();
+    summary["wall_time_s"] = serde_json::json!(wall);
+    let json = args.out.join("summary.json");
+    let text = serde_json::to_string_pretty(&summary)?;
+    std::fs::write(&json, text + "\n")
+        .with_context(|| format!("{}: cannot write", json.display()))?;
+    let (first, last) = report.first_last(0.1);
+    println!(
+        "{} / {} / seed {}: {} steps, mean latent loss {:.3} (first 10%) -> {:.3} (last 10%), {} corrections, {} collisions, {} laps",
+        report.scenario,
+        config.mode.name(),
+        config.seed,
+        report.records.len(),
+        first,
+        last,
+        report.corrections(),
+        report.collisions(),
+        report.laps()
+    );
+    println!("final weights {:?}", report.final_snapshot.state.average);
+    println!(
+        "wrote {} and {} ({wall:.2} s)",
+        csv.display(),
+        json.display()
+    );
+    Ok(())
+}
+
+fn list() {
+    println!("scenarios (--scenario NAME, or a path to your own .toml):");
+    for s in registry::SCENARIOS {
+        let length = registry::load_scenario(s.name)
+            .map(|scn| format!("{:6.1} m path", scn.path.length()))
+            .unwrap_or_else(|e| format!("(cannot load: {e})"));
+        println!("  {:<14} {length}  {}", s.name, s.description);
+    }
+    println!("teacher presets (weights: obstacles, door, stairs, chair, path, right):");
+    for p in host_sim::teacher::PRESETS {
+        println!("  {:<14} {:?}  {}", p.name, p.weights, p.description);
+    }
+    println!("experiments:");
+    for e in registry::EXPERIMENTS {
+        println!("  {:<14} {}", e.name, e.description);
+    }
+}
+
+fn draw(scenario: &str, run: Option<&Path>, out: &Path) -> Result<()> {
+    let s = registry::load_scenario(scenario)?;
+    let mut raster = host_sim::plot::Raster::of_scenario(&s);
+    if let Some(csv) = run {
+        raster.trace(&host_sim::plot::read_trace(csv)?);
+    }
+    raster.write_png(out)?;
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+fn bench(scenario: &str, steps: u32) -> Result<()> {
+    if steps == 0 {
+        bail!("--steps must be positive");
+    }
+    let s = Arc::new(registry::load_scenario(scenario)?);
+    let config = RunConfig {
+        steps,
+        ..RunConfig::new(s)
+    };
+    let started = Instant::now();
+    let report = experiment::run(&config)?;
+    let wall = started.elapsed().as_secs_f64();
+    println!(
+        "{}: {} simulated steps (action feedback, {} corrections) in {:.3} s: {:.0} steps/s on one core",
+        report.scenario,
+        steps,
+        report.corrections(),
+        wall,
+        steps as f64 / wall
+    );
+    Ok(())
 }
 
 fn demo(args: &DemoArgs) -> Result<()> {
@@ -135,6 +366,21 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Demo(args) => demo(args),
+        Command::Run(args) => run(args),
+        Command::List => {
+            list();
+            Ok(())
+        }
+        Command::GenMaps { out } => host_sim::households::write_all(out).map(|files| {
+            for f in files {
+                println!("wrote {f}");
+            }
+        }),
+        Command::Lattice { out } => host_sim::plot::lattice_svg(out).map(|()| {
+            println!("wrote {}", out.display());
+        }),
+        Command::Bench { scenario, steps } => bench(scenario, *steps),
+        Command::Draw { scenario, run, out } => draw(scenario, run.as_deref(), out),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

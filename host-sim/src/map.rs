@@ -1,0 +1,778 @@
+//! Occupancy-grid maps in ROS `map_server` format, and fast ray casting through them.
+//!
+//! A map is a YAML file naming an image (PGM or PNG) and how to read it:
+//!
+//! ```yaml
+//! image: basement_hallways_10cm.png   # relative to the YAML file
+//! resolution: 0.1                      # metres per pixel
+//! origin: [-30.0, -30.0, 0.0]          # pose (x, y, yaw) of the lower-left pixel
+//! negate: 0                            # 1: white is occupied
+//! occupied_thresh: 0.65
+//! free_thresh: 0.196
+//! mode: trinary                        # trinary (default), scale or raw
+//! ```
+//!
+//! Pixel `v` (the mean of the colour channels, scaled to 0–255) becomes the occupancy
+//! probability `p = (255 − v)/255` (`v/255` with `negate: 1`): occupied when
+//! `p > occupied_thresh`, free when `p < free_thresh`, unknown otherwise. A fully transparent
+//! pixel is unknown. In `raw` mode the pixel value is the occupancy in percent (0 free, 100
+//! occupied, anything else unknown unless below `free_thresh · 100`). Image row 0 is the **top**
+//! of the map: the origin is the lower-left pixel. The car treats **unknown cells as
+//! obstacles**, and so does the range sensor; everything outside the image is unknown.
+//!
+//! Every problem, a missing file, malformed YAML, a bad threshold, an unreadable image, comes
+//! back as a [`MapError`] naming the file and the problem. Nothing here panics on bad input.
+//!
+//! Ray casting ([`OccupancyGrid::raycast`]) walks the grid cell by cell (Amanatides–Woo DDA): the
+//! cost is the number of cells crossed, at most `range / resolution · 2`.
+//!
+//! ```
+//! use host_sim::map::OccupancyGrid;
+//! // A 4 m × 4 m room at 0.1 m/px: walls on the border.
+//! let grid = OccupancyGrid::from_fn(40, 40, 0.1, [0.0, 0.0, 0.0], |c, r| {
+//!     c == 0 || r == 0 || c == 39 || r == 39
+//! });
+//! let d = grid.raycast(2.0, 2.0, 0.0, 10.0);
+//! assert!((d - 1.9).abs() < 1e-9); // the wall's cells start at x = 3.9
+//! ```
+
+use std::path::{Path, PathBuf};
+
+use thiserror::Error;
+use yaml_rust2::{Yaml, YamlLoader};
+
+/// What went wrong loading a map. Every variant names the file.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum MapError {
+    /// The file could not be read.
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The YAML does not parse, or is not a mapping.
+    #[error("{path}: malformed YAML: {message}")]
+    Yaml {
+        /// The file.
+        path: PathBuf,
+        /// What the parser said.
+        message: String,
+    },
+    /// A key is missing or has a bad value.
+    #[error("{path}: {field}: {problem}")]
+    Field {
+        /// The file.
+        path: PathBuf,
+        /// The key.
+        field: &'static str,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// The image cannot be decoded.
+    #[error("{path}: bad image: {message}")]
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+}
+
+/// How pixel values become occupancy (`mode` in the YAML).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub enum MapMode {
+    /// Occupied, free or unknown by the thresholds (the default).
+    Trinary,
+    /// Like trinary for what the car cares about: anything between the thresholds is not free.
+    Scale,
+    /// The pixel value is the occupancy in percent.
+    Raw,
+}
+
+/// The metadata of a map's YAML file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MapMeta {
+    /// The image file, resolved against the YAML's folder.
+    pub image: PathBuf,
+    /// Metres per pixel.
+    pub resolution: f64,
+    /// Pose of the lower-left pixel's corner `(x, y, yaw)`.
+    pub origin: [f64; 3],
+    /// White is occupied.
+    pub negate: bool,
+    /// Occupancy probability above which a cell is occupied.
+    pub occupied_thresh: f64,
+    /// Occupancy probability below which a cell is free.
+    pub free_thresh: f64,
+    /// How pixel values are read.
+    pub mode: MapMode,
+}
+
+/// One cell's state.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[repr(u8)]
+pub enum Cell {
+    /// Free space.
+    Free = 0,
+    /// An obstacle.
+    Occupied = 1,
+    /// Not mapped; the car treats it as an obstacle.
+    Unknown = 2,
+}
+
+/// A loaded occupancy grid. Row 0 is the **bottom** row (lowest `y`), as in
+/// `nav_msgs/OccupancyGrid`.
+#[derive(Clone, Debug)]
+pub struct OccupancyGrid {
+    width: usize,
+    height: usize,
+    resolution: f64,
+    origin: [f64; 3],
+    cos_yaw: f64,
+    sin_yaw: f64,
+    cells: Vec<Cell>,
+    /// Where the map came from (for messages).
+    source: PathBuf,
+}
+
+fn field(path: &Path, field: &'static str, problem: impl Into<String>) -> MapError {
+    MapError::Field {
+        path: path.to_path_buf(),
+        field,
+        problem: problem.into(),
+    }
+}
+
+fn number(y: &Yaml) -> Option<f64> {
+    match y {
+        Yaml::Integer(i) => Some(*i as f64),
+        Yaml::Real(_) => y.as_f64(),
+        _ => None,
+    }
+}
+
+impl MapMeta {
+    /// Parses the YAML text of a map; `path` is the YAML file (for messages and to resolve the
+    /// image).
+    pub fn parse(text: &str, path: &Path) -> Result<Self, MapError> {
+        let docs = YamlLoader::load_from_str(text).map_err(|e| MapError::Yaml {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        })?;
+        let doc = docs.first().ok_or_else(|| MapError::Yaml {
+            path: path.to_path_buf(),
+            message: "empty document".into(),
+        })?;
+        let hash = doc.as_hash().ok_or_else(|| MapError::Yaml {
+            path: path.to_path_buf(),
+            message: "expected a mapping of keys (image, resolution, origin, ...)".into(),
+        })?;
+        for key in hash.keys() {
+            let known = matches!(
+                key.as_str(),
+                Some(
+                    "image"
+                        | "resolution"
+                        | "origin"
+                        | "negate"
+                        | "occupied_thresh"
+                        | "free_thresh"
+                        | "mode"
+                )
+            );
+            if !known {
+                return Err(MapError::Yaml {
+                    path: path.to_path_buf(),
+                    message: format!("unknown key {key:?}"),
+                });
+            }
+        }
+        let get = |k: &str| {
+            let v = &doc[k];
+            (!v.is_badvalue()).then_some(v)
+        };
+        let image = get("image")
+            .ok_or_else(|| field(path, "image", "missing"))?
+            .as_str()
+            .ok_or_else(|| field(path, "image", "must be a file name"))?;
+        if image.is_empty() {
+            return Err(field(path, "image", "must be a file name"));
+        }
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let image = dir.join(image);
+        let resolution =
+            number(get("resolution").ok_or_else(|| field(path, "resolution", "missing"))?)
+                .ok_or_else(|| field(path, "resolution", "must be a number"))?;
+        if !(resolution.is_finite() && resolution > 0.0 && resolution <= 10.0) {
+            return Err(field(
+                path,
+                "resolution",
+                format!("must be in (0, 10] m/px, got {resolution}"),
+            ));
+        }
+        let origin_y = get("origin").ok_or_else(|| field(path, "origin", "missing"))?;
+        let list = origin_y
+            .as_vec()
+            .filter(|v| v.len() == 3)
+            .ok_or_else(|| field(path, "origin", "must be a list [x, y, yaw]"))?;
+        let mut origin = [0.0; 3];
+        for (o, y) in origin.iter_mut().zip(list) {
+            *o = number(y)
+                .filter(|x| x.is_finite() && x.abs() <= 1.0e6)
+                .ok_or_else(|| field(path, "origin", "must hold three finite numbers"))?;
+        }
+        let negate = match get("negate") {
+            None => false,
+            Some(Yaml::Integer(0)) | Some(Yaml::Boolean(false)) => false,
+            Some(Yaml::Integer(1)) | Some(Yaml::Boolean(true)) => true,
+            Some(_) => return Err(field(path, "negate", "must be 0 or 1")),
+        };
+        let thresh = |k: &'static str, default: f64| -> Result<f64, MapError> {
+            match get(k) {
+                None => Ok(default),
+                Some(y) => {
+                    let v = number(y).ok_or_else(|| field(path, k, "must be a number"))?;
+                    if (0.0..=1.0).contains(&v) {
+                        Ok(v)
+                    } else {
+                        Err(field(path, k, format!("must be in [0, 1], got {v}")))
+                    }
+                }
+            }
+        };
+        let occupied_thresh = thresh("occupied_thresh", 0.65)?;
+        let free_thresh = thresh("free_thresh", 0.196)?;
+        if free_thresh > occupied_thresh {
+            return Err(field(
+                path,
+                "free_thresh",
+                format!("must not exceed occupied_thresh ({free_thresh} > {occupied_thresh})"),
+            ));
+        }
+        let mode = match get("mode").map(|m| m.as_str()) {
+            None | Some(Some("trinary")) => MapMode::Trinary,
+            Some(Some("scale")) => MapMode::Scale,
+            Some(Some("raw")) => MapMode::Raw,
+            Some(_) => return Err(field(path, "mode", "must be trinary, scale or raw")),
+        };
+        Ok(Self {
+            image,
+            resolution,
+            origin,
+            negate,
+            occupied_thresh,
+            free_thresh,
+            mode,
+        })
+    }
+
+    /// The cell a pixel of value `v` (0–255, mean of the colour channels) and alpha `alpha`
+    /// (0–255) becomes.
+    pub fn classify(&self, v: f64, alpha: f64) -> Cell {
+        if alpha <= 0.0 {
+            return Cell::Unknown;
+        }
+        if self.mode == MapMode::Raw {
+            return if v < self.free_thresh * 100.0 {
+                Cell::Free
+            } else if (v - 100.0).abs() < 0.5 || v > self.occupied_thresh * 100.0 && v <= 100.0 {
+                Cell::Occupied
+            } else {
+                Cell::Unknown
+            };
+        }
+        let p = if self.negate {
+            v / 255.0
+        } else {
+            (255.0 - v) / 255.0
+        };
+        if p > self.occupied_thresh {
+            Cell::Occupied
+        } else if p < self.free_thresh {
+            Cell::Free
+        } else {
+            Cell::Unknown
+        }
+    }
+}
+
+/// A decoded image: grey values 0–255 and alpha 0–255, row 0 at the top.
+struct Grey {
+    width: usize,
+    height: usize,
+    value: Vec<f64>,
+    alpha: Vec<f64>,
+}
+
+fn image_err(path: &Path, message: impl Into<String>) -> MapError {
+    MapError::Image {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+/// Largest image side accepted (pixels).
+pub const MAX_IMAGE_SIDE: usize = 20_000;
+
+fn decode_pgm(bytes: &[u8], path: &Path) -> Result<Grey, MapError> {
+    // Header: magic, width, height, maxval, separated by whitespace, with '#' comments.
+    let mut pos = 0usize;
+    let token = |pos: &mut usize| -> Option<String> {
+        loop {
+            while *pos < bytes.len() && bytes[*pos].is_ascii_whitespace() {
+                *pos += 1;
+            }
+            if *pos < bytes.len() && bytes[*pos] == b'#' {
+                while *pos < bytes.len() && bytes[*pos] != b'\n' {
+                    *pos += 1;
+                }
+                continue;
+            }
+            break;
+        }
+        let start = *pos;
+        while *pos < bytes.len() && !bytes[*pos].is_ascii_whitespace() {
+            *pos += 1;
+        }
+        (start < *pos).then(|| String::from_utf8_lossy(&bytes[start..*pos]).into_owned())
+    };
+    let magic = token(&mut pos).ok_or_else(|| image_err(path, "empty PGM"))?;
+    let binary = match magic.as_str() {
+        "P5" => true,
+        "P2" => false,
+        m => {
+            return Err(image_err(
+                path,
+                format!("not a PGM (magic {m:?}, expected P5 or P2)"),
+            ));
+        }
+    };
+    let num = |what: &str, pos: &mut usize| -> Result<usize, MapError> {
+        token(pos)
+            .and_then(|t| t.parse::<usize>().ok())
+            .ok_or_else(|| image_err(path, format!("PGM header: bad {what}")))
+    };
+    let width = num("width", &mut pos)?;
+    let height = num("height", &mut pos)?;
+    let maxval = num("maxval", &mut pos)?;
+    check_size(width, height, path)?;
+    if maxval == 0 || maxval > 65_535 {
+        return Err(image_err(
+            path,
+            format!("PGM maxval {maxval} not in 1..=65535"),
+        ));
+    }
+    let n = width * height;
+    let scale = 255.0 / maxval as f64;
+    let mut value = Vec::new();
+    if binary {
+        pos += 1; // the single whitespace after maxval
+        let wide = maxval > 255;
+        let need = n * if wide { 2 } else { 1 };
+        // Check the length before allocating anything the header asks for.
+        let data = bytes
+            .get(pos..pos + need)
+            .ok_or_else(|| image_err(path, format!("PGM data truncated: need {need} bytes")))?;
+        value.reserve_exact(n);
+        if wide {
+            value.extend(
+                data.chunks_exact(2)
+                    .map(|c| u16::from_be_bytes([c[0], c[1]]) as f64 * scale),
+            );
+        } else {
+            value.extend(data.iter().map(|&b| b as f64 * scale));
+        }
+    } else {
+        // Every ASCII pixel takes at least one byte.
+        if bytes.len().saturating_sub(pos) < n {
+            return Err(image_err(
+                path,
+                format!("PGM data truncated: need {n} pixels"),
+            ));
+        }
+        value.reserve_exact(n);
+        for _ in 0..n {
+            let v = num("pixel", &mut pos)?;
+            if v > maxval {
+                return Err(image_err(path, format!("pixel {v} above maxval {maxval}")));
+            }
+            value.push(v as f64 * scale);
+        }
+    }
+    Ok(Grey {
+        width,
+        height,
+        value,
+        alpha: vec![255.0; n],
+    })
+}
+
+fn check_size(width: usize, height: usize, path: &Path) -> Result<(), MapError> {
+    if width == 0 || height == 0 || width > MAX_IMAGE_SIDE || height > MAX_IMAGE_SIDE {
+        return Err(image_err(
+            path,
+            format!("size {width}×{height} not within 1..={MAX_IMAGE_SIDE} per side"),
+        ));
+    }
+    Ok(())
+}
+
+fn decode_png(bytes: &[u8], path: &Path) -> Result<Grey, MapError> {
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
+    let mut reader = decoder
+        .read_info()
+        .map_err(|e| image_err(path, format!("PNG: {e}")))?;
+    let (width, height) = {
+        let info = reader.info();
+        (info.width as usize, info.height as usize)
+    };
+    check_size(width, height, path)?;
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| image_err(path, "PNG too large"))?;
+    let mut buf = vec![0u8; size];
+    let frame = reader
+        .next_frame(&mut buf)
+        .map_err(|e| image_err(path, format!("PNG: {e}")))?;
+    let channels = frame.color_type.samples();
+    let n = width * height;
+    let mut value = Vec::with_capacity(n);
+    let mut alpha = Vec::with_capacity(n);
+    for r in 0..height {
+        let row = &buf[r * frame.line_size..r * frame.line_size + width * channels];
+        for px in row.chunks_exact(channels) {
+            let (colour, a) = match channels {
+                1 => (&px[..1], 255.0),
+                2 => (&px[..1], px[1] as f64),
+                3 => (&px[..3], 255.0),
+                _ => (&px[..3], px[3] as f64),
+            };
+            let mean = colour.iter().map(|&c| c as f64).sum::<f64>() / colour.len() as f64;
+            value.push(mean);
+            alpha.push(a);
+        }
+    }
+    Ok(Grey {
+        width,
+        height,
+        value,
+        alpha,
+    })
+}
+
+impl OccupancyGrid {
+    /// Loads the map described by the YAML file at `path`.
+    pub fn load(path: &Path) -> Result<Self, MapError> {
+        let text = std::fs::read_to_string(path).map_err(|source| MapError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        let meta = MapMeta::parse(&text, path)?;
+        Self::from_meta(&meta, path)
+    }
+
+    /// Loads the image `meta` names; `yaml` is the YAML file (for messages).
+    pub fn from_meta(meta: &MapMeta, yaml: &Path) -> Result<Self, MapError> {
+        let bytes = std::fs::read(&meta.image).map_err(|source| MapError::Io {
+            path: meta.image.clone(),
+            source,
+        })?;
+        let ext = meta
+            .image
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase());
+        let grey = if bytes.starts_with(b"\x89PNG") {
+            decode_png(&bytes, &meta.image)?
+        } else if bytes.starts_with(b"P5") || bytes.starts_with(b"P2") {
+            decode_pgm(&bytes, &meta.image)?
+        } else {
+            return Err(image_err(
+                &meta.image,
+                format!(
+                    "neither PNG nor PGM (extension {:?}); map_server images must be one of these",
+                    ext.unwrap_or_default()
+                ),
+            ));
+        };
+        let mut cells = vec![Cell::Unknown; grey.width * grey.height];
+        for r in 0..grey.height {
+            // Image row r (from the top) is grid row height-1-r (from the bottom).
+            let gr = grey.height - 1 - r;
+            for c in 0..grey.width {
+                let i = r * grey.width + c;
+                cells[gr * grey.width + c] = meta.classify(grey.value[i], grey.alpha[i]);
+            }
+        }
+        Ok(Self::from_cells(
+            grey.width,
+            grey.height,
+            meta.resolution,
+            meta.origin,
+            cells,
+            yaml.to_path_buf(),
+        ))
+    }
+
+    fn from_cells(
+        width: usize,
+        height: usize,
+        resolution: f64,
+        origin: [f64; 3],
+        cells: Vec<Cell>,
+        source: PathBuf,
+    ) -> Self {
+        Self {
+            width,
+            height,
+            resolution,
+            origin,
+            cos_yaw: libm::cos(origin[2]),
+            sin_yaw: libm::sin(origin[2]),
+            cells,
+            source,
+        }
+    }
+
+    /// A grid built from a function `blocked(column, row)` (row 0 at the bottom): blocked cells
+    /// are occupied, the rest free. For tests and generated maps.
+    pub fn from_fn(
+        width: usize,
+        height: usize,
+        resolution: f64,
+        origin: [f64; 3],
+        blocked: impl Fn(usize, usize) -> bool,
+    ) -> Self {
+        let mut cells = Vec::with_capacity(width * height);
+        for r in 0..height {
+            for c in 0..width {
+                cells.push(if blocked(c, r) {
+                    Cell::Occupied
+                } else {
+                    Cell::Free
+                });
+            }
+        }
+        Self::from_cells(width, height, resolution, origin, cells, PathBuf::new())
+    }
+
+    /// Width in cells.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Height in cells.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Metres per cell.
+    pub fn resolution(&self) -> f64 {
+        self.resolution
+    }
+
+    /// Pose of the lower-left corner `(x, y, yaw)`.
+    pub fn origin(&self) -> [f64; 3] {
+        self.origin
+    }
+
+    /// The YAML file the map was loaded from (empty for built grids).
+    pub fn source(&self) -> &Path {
+        &self.source
+    }
+
+    /// The cell at `(column, row)`, row 0 at the bottom; `None` outside the grid.
+    pub fn cell(&self, column: usize, row: usize) -> Option<Cell> {
+        (column < self.width && row < self.height).then(|| self.cells[row * self.width + column])
+    }
+
+    /// Number of cells of each state: `[free, occupied, unknown]`.
+    pub fn counts(&self) -> [usize; 3] {
+        let mut n = [0; 3];
+        for c in &self.cells {
+            n[*c as usize] += 1;
+        }
+        n
+    }
+
+    /// World point → continuous grid coordinates (cells, from the lower-left corner).
+    #[inline]
+    fn to_grid(&self, x: f64, y: f64) -> (f64, f64) {
+        let dx = x - self.origin[0];
+        let dy = y - self.origin[1];
+        let gx = (dx * self.cos_yaw + dy * self.sin_yaw) / self.resolution;
+        let gy = (-dx * self.sin_yaw + dy * self.cos_yaw) / self.resolution;
+        (gx, gy)
+    }
+
+    /// The world coordinates of the centre of cell `(column, row)`.
+    pub fn cell_center(&self, column: usize, row: usize) -> (f64, f64) {
+        let gx = (column as f64 + 0.5) * self.resolution;
+        let gy = (row as f64 + 0.5) * self.resolution;
+        (
+            self.origin[0] + gx * self.cos_yaw - gy * self.sin_yaw,
+            self.origin[1] + gx * self.sin_yaw + gy * self.cos_yaw,
+        )
+    }
+
+    #[inline]
+    fn blocked_cell(&self, cx: i64, cy: i64) -> bool {
+        if cx < 0 || cy < 0 || cx as usize >= self.width || cy as usize >= self.height {
+            return true;
+        }
+        self.cells[cy as usize * self.width + cx as usize] != Cell::Free
+    }
+
+    /// Whether the world point lies in a cell that is not free (occupied, unknown, or outside
+    /// the map).
+    #[inline]
+    pub fn is_blocked(&self, x: f64, y: f64) -> bool {
+        let (gx, gy) = self.to_grid(x, y);
+        self.blocked_cell(libm::floor(gx) as i64, libm::floor(gy) as i64)
+    }
+
+    /// Distance from `(x, y)` along heading `angle` (world frame, radians) to the first cell
+    /// that is not free, at most `max_range`. A ray starting in a blocked cell returns 0.
+    ///
+    /// Amanatides–Woo traversal: one step per cell crossed.
+    pub fn raycast(&self, x: f64, y: f64, angle: f64, max_range: f64) -> f64 {
+        let (gx, gy) = self.to_grid(x, y);
+        let a = angle - self.origin[2];
+        let (dx, dy) = (libm::cos(a), libm::sin(a));
+        let mut cx = libm::floor(gx) as i64;
+        let mut cy = libm::floor(gy) as i64;
+        if self.blocked_cell(cx, cy) {
+            return 0.0;
+        }
+        let max_t = max_range / self.resolution;
+        let step_x: i64 = if dx > 0.0 { 1 } else { -1 };
+        let step_y: i64 = if dy > 0.0 { 1 } else { -1 };
+        let t_delta_x = if dx != 0.0 {
+            1.0 / dx.abs()
+        } else {
+            f64::INFINITY
+        };
+        let t_delta_y = if dy != 0.0 {
+            1.0 / dy.abs()
+        } else {
+            f64::INFINITY
+        };
+        let mut t_max_x = if dx > 0.0 {
+            (cx as f64 + 1.0 - gx) * t_delta_x
+        } else if dx < 0.0 {
+            (gx - cx as f64) * t_delta_x
+        } else {
+            f64::INFINITY
+        };
+        let mut t_max_y = if dy > 0.0 {
+            (cy as f64 + 1.0 - gy) * t_delta_y
+        } else if dy < 0.0 {
+            (gy - cy as f64) * t_delta_y
+        } else {
+            f64::INFINITY
+        };
+        loop {
+            let t = if t_max_x < t_max_y {
+                let t = t_max_x;
+                t_max_x += t_delta_x;
+                cx += step_x;
+                t
+            } else {
+                let t = t_max_y;
+                t_max_y += t_delta_y;
+                cy += step_y;
+                t
+            };
+            if t >= max_t {
+                return max_range;
+            }
+            if self.blocked_cell(cx, cy) {
+                return t * self.resolution;
+            }
+        }
+    }
+
+    /// Whether the straight segment from `a` to `b` crosses no blocked cell before the last
+    /// `slack` metres (the end may lie in or on a blocked object).
+    pub fn line_of_sight(&self, a: (f64, f64), b: (f64, f64), slack: f64) -> bool {
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let len = libm::sqrt(dx * dx + dy * dy);
+        let reach = len - slack;
+        if reach <= 0.0 {
+            return true;
+        }
+        self.raycast(a.0, a.1, libm::atan2(dy, dx), reach) >= reach
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn room() -> OccupancyGrid {
+        OccupancyGrid::from_fn(40, 30, 0.1, [-1.0, -1.0, 0.0], |c, r| {
+            c == 0 || r == 0 || c == 39 || r == 29
+        })
+    }
+
+    #[test]
+    fn raycast_hits_the_walls_in_all_directions() {
+        let g = room();
+        // Free interior spans x in [-0.9, 2.9], y in [-0.9, 1.9].
+        let (x, y) = (0.5, 0.5);
+        let right = g.raycast(x, y, 0.0, 10.0);
+        let up = g.raycast(x, y, std::f64::consts::FRAC_PI_2, 10.0);
+        let left = g.raycast(x, y, std::f64::consts::PI, 10.0);
+        let down = g.raycast(x, y, -std::f64::consts::FRAC_PI_2, 10.0);
+        assert!((right - 2.4).abs() < 1e-9, "{right}");
+        assert!((up - 1.4).abs() < 1e-9, "{up}");
+        assert!((left - 1.4).abs() < 1e-9, "{left}");
+        assert!((down - 1.4).abs() < 1e-9, "{down}");
+        assert_eq!(g.raycast(x, y, 0.3, 0.5), 0.5, "max range");
+        assert_eq!(g.raycast(-0.95, 0.0, 0.0, 3.0), 0.0, "inside a wall");
+    }
+
+    #[test]
+    fn raycast_matches_a_fine_march() {
+        let g = room();
+        for k in 0..50 {
+            let a = k as f64 * 0.1257;
+            let d = g.raycast(0.33, 0.21, a, 10.0);
+            // March in 1 mm steps.
+            let mut s = 0.0;
+            while s < 10.0 && !g.is_blocked(0.33 + s * a.cos(), 0.21 + s * a.sin()) {
+                s += 0.001;
+            }
+            assert!((d - s).abs() < 0.0015, "angle {a}: dda {d} march {s}");
+        }
+    }
+
+    #[test]
+    fn outside_is_blocked_and_rows_are_bottom_up() {
+        let g = OccupancyGrid::from_fn(3, 2, 1.0, [0.0, 0.0, 0.0], |c, r| c == 2 && r == 0);
+        assert!(g.is_blocked(2.5, 0.5));
+        assert!(!g.is_blocked(2.5, 1.5));
+        assert!(g.is_blocked(-0.1, 0.5));
+        assert!(g.is_blocked(0.5, 2.1));
+        assert_eq!(g.cell_center(2, 0), (2.5, 0.5));
+    }
+
+    #[test]
+    fn classify_follows_map_server() {
+        let meta = MapMeta::parse(
+            "image: x.png\nresolution: 0.1\norigin: [0, 0, 0]\noccupied_thresh: 0.65\nfree_thresh: 0.196\n",
+            Path::new("m.yaml"),
+        )
+        .unwrap();
+        assert_eq!(meta.classify(0.0, 255.0), Cell::Occupied);
+        assert_eq!(meta.classify(255.0, 255.0), Cell::Free);
+        assert_eq!(meta.classify(205.0, 255.0), Cell::Unknown);
+        assert_eq!(meta.classify(255.0, 0.0), Cell::Unknown);
+        assert!(!meta.negate);
+        assert_eq!(meta.mode, MapMode::Trinary);
+    }
+}
