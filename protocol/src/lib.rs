@@ -16,5 +16,6 @@
 
 pub mod can;
 pub mod envelope;
+pub mod message;
 
 pub use envelope::{ENVELOPE_OVERHEAD, EnvelopeError, PROTOCOL_VERSION, open, seal};
