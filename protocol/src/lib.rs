@@ -17,5 +17,6 @@
 pub mod can;
 pub mod envelope;
 pub mod message;
+pub mod stream;
 
 pub use envelope::{ENVELOPE_OVERHEAD, EnvelopeError, PROTOCOL_VERSION, open, seal};
