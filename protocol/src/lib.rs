@@ -16,6 +16,7 @@
 
 pub mod can;
 pub mod envelope;
+pub mod isotp;
 pub mod message;
 pub mod stream;
 
