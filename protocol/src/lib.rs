@@ -17,6 +17,7 @@
 pub mod can;
 pub mod envelope;
 pub mod isotp;
+pub mod link;
 pub mod message;
 pub mod stream;
 
