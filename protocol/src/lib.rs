@@ -15,6 +15,7 @@
 #![deny(missing_docs)]
 
 pub mod can;
+pub mod delivery;
 pub mod envelope;
 pub mod isotp;
 pub mod link;
