@@ -23,7 +23,9 @@ fn percent(ns: u64) -> f64 {
 }
 
 fn main() {
-    println!("Every message at its largest (sealed: version + postcard + CRC-16), worst-case bit stuffing.\n");
+    println!(
+        "Every message at its largest (sealed: version + postcard + CRC-16), worst-case bit stuffing.\n"
+    );
     println!(
         "| message | bytes | frames classic | frames FD | bits classic | bits FD (nominal + data) | µs classic 1M | µs FD 1/5M |"
     );
@@ -82,6 +84,10 @@ fn main() {
     let load = tick_load_percent(Bus::CLASSIC_1M, CONTROL_RATE_HZ);
     println!(
         "\nBudget (DESIGN section 7): under {MAX_TICK_LOAD_PERCENT}% of classic CAN at 1 Mbit/s: {load:.2}% — {}",
-        if load < MAX_TICK_LOAD_PERCENT { "met" } else { "EXCEEDED" }
+        if load < MAX_TICK_LOAD_PERCENT {
+            "met"
+        } else {
+            "EXCEEDED"
+        }
     );
 }
