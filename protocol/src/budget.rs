@@ -31,7 +31,7 @@
 //!
 //! Assumptions: no error frames, no overload frames, no remote frames, no bus idle time between
 //! frames, and every frame of a message sent back to back. Frame sizes come from
-//! [`isotp::frame_len`], so the arithmetic follows the segmentation exactly.
+//! [`crate::isotp::frame_len`], so the arithmetic follows the segmentation exactly.
 //!
 //! ```
 //! use protocol::budget::{Bus, classic_frame_bits, tick_load_percent};

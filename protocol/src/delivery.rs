@@ -26,7 +26,7 @@
 //!   older than the window is answered [`NackCode::Stale`] and not applied (it cannot come from a
 //!   sender that keeps that rule).
 //! * **Sender restart.** A new sender must use a new session number (a boot counter kept in
-//!   flash, or a random byte) and should send [`Message::Reset`](crate::Message::Reset) first.
+//!   flash, or a random byte) and should send [`Message::Reset`] first.
 //!   The receiver starts a fresh window whenever the session changes, so the new sender's
 //!   sequence numbers are not mistaken for the old one's.
 //! * **Receiver restart.** The window is lost; copies of feedback applied before the restart
@@ -336,7 +336,7 @@ impl FeedbackReceiver {
         }
     }
 
-    /// Forgets everything (on a [`Message::Reset`](crate::Message::Reset)).
+    /// Forgets everything (on a [`Message::Reset`]).
     pub fn reset(&mut self) {
         *self = Self::new();
     }

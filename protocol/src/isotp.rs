@@ -13,7 +13,7 @@
 //! | consecutive frame (CF) | `0x2N` (sequence number N = 1, 2, …, 15, 0, 1, …), then data | 7 / 63 |
 //!
 //! A classic frame is as long as its content (no padding: classic CAN allows any length 0–8).
-//! An FD frame must have one of the lengths of [`FD_LENGTHS`](crate::can::FD_LENGTHS); the SF
+//! An FD frame must have one of the lengths of [`FD_LENGTHS`]; the SF
 //! and the last CF are padded with [`PADDING`] up to the next one. A first frame and every
 //! consecutive frame but the last are full (8 or 64 bytes).
 //!
