@@ -11,6 +11,22 @@
 //! let bytes = seal(&(7u8, -1i16), &mut buf).unwrap();
 //! assert_eq!(open::<(u8, i16)>(bytes), Ok((7, -1)));
 //! ```
+//!
+//! # Checked view and panic contract
+//!
+//! [`Envelope`] is a view of raw bytes (smoltcp style): [`Envelope::new_checked`] checks the
+//! length, the CRC and the version, and after it no accessor panics. [`Envelope::new_unchecked`]
+//! only wraps the buffer; its accessors panic on a buffer shorter than [`ENVELOPE_OVERHEAD`].
+//! Bytes from outside must go through [`Envelope::new_checked`] (or [`open`], which uses it).
+//!
+//! ```
+//! use protocol::envelope::{Envelope, EnvelopeError};
+//! let mut buf = [0u8; 8];
+//! let sealed = protocol::seal(&300u16, &mut buf).unwrap();
+//! let env = Envelope::new_checked(sealed).unwrap();
+//! assert_eq!((env.version(), env.payload()), (1, &[0xAC, 0x02][..]));
+//! assert_eq!(Envelope::new_checked(&sealed[..2]).unwrap_err(), EnvelopeError::Truncated);
+//! ```
 
 use core::fmt;
 
@@ -78,23 +94,89 @@ pub fn seal<'b, T: Serialize + ?Sized>(
     Ok(&buf[..3 + n])
 }
 
-/// Reads a value from an envelope.
+/// Reads a value from an envelope: [`Envelope::new_checked`], then the payload must decode as
+/// a `T` using every byte.
 pub fn open<'a, T: Deserialize<'a>>(bytes: &'a [u8]) -> Result<T, EnvelopeError> {
-    if bytes.len() < ENVELOPE_OVERHEAD {
-        return Err(EnvelopeError::Truncated);
-    }
-    let (body, crc) = bytes.split_at(bytes.len() - 2);
-    if CRC16.checksum(body).to_le_bytes() != [crc[0], crc[1]] {
-        return Err(EnvelopeError::Crc);
-    }
-    if body[0] != PROTOCOL_VERSION {
-        return Err(EnvelopeError::Version(body[0]));
-    }
-    let (value, rest) = postcard::take_from_bytes(&body[1..]).map_err(|_| EnvelopeError::Decode)?;
+    let payload = Envelope::new_checked(bytes)?.into_payload();
+    let (value, rest) = postcard::take_from_bytes(payload).map_err(|_| EnvelopeError::Decode)?;
     if !rest.is_empty() {
         return Err(EnvelopeError::TrailingBytes);
     }
     Ok(value)
+}
+
+/// A view of an envelope in a byte buffer: the checked counterpart of [`seal`]'s output.
+///
+/// See the module documentation for the panic contract.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub struct Envelope<T: AsRef<[u8]>> {
+    buffer: T,
+}
+
+impl<T: AsRef<[u8]>> Envelope<T> {
+    /// Wraps `buffer` without checking it: accessors panic if it is shorter than
+    /// [`ENVELOPE_OVERHEAD`]. Use [`Envelope::new_checked`] for bytes from outside.
+    pub const fn new_unchecked(buffer: T) -> Self {
+        Self { buffer }
+    }
+
+    /// Wraps `buffer` after checking its length, CRC and version, in that order.
+    pub fn new_checked(buffer: T) -> Result<Self, EnvelopeError> {
+        let env = Self::new_unchecked(buffer);
+        env.check_len()?;
+        if env.crc() != env.computed_crc() {
+            return Err(EnvelopeError::Crc);
+        }
+        if env.version() != PROTOCOL_VERSION {
+            return Err(EnvelopeError::Version(env.version()));
+        }
+        Ok(env)
+    }
+
+    /// Whether the buffer is long enough for the accessors not to panic.
+    pub fn check_len(&self) -> Result<(), EnvelopeError> {
+        if self.buffer.as_ref().len() < ENVELOPE_OVERHEAD {
+            Err(EnvelopeError::Truncated)
+        } else {
+            Ok(())
+        }
+    }
+
+    /// The version byte.
+    pub fn version(&self) -> u8 {
+        self.buffer.as_ref()[0]
+    }
+
+    /// The postcard payload between the version byte and the CRC.
+    pub fn payload(&self) -> &[u8] {
+        let b = self.buffer.as_ref();
+        &b[1..b.len() - 2]
+    }
+
+    /// The CRC as written in the last two bytes (little-endian).
+    pub fn crc(&self) -> u16 {
+        let b = self.buffer.as_ref();
+        u16::from_le_bytes([b[b.len() - 2], b[b.len() - 1]])
+    }
+
+    /// The CRC of the version byte and the payload.
+    pub fn computed_crc(&self) -> u16 {
+        let b = self.buffer.as_ref();
+        CRC16.checksum(&b[..b.len() - 2])
+    }
+
+    /// The underlying buffer.
+    pub fn into_inner(self) -> T {
+        self.buffer
+    }
+}
+
+impl<'a> Envelope<&'a [u8]> {
+    /// The payload, borrowed for as long as the buffer (not just the view).
+    pub fn into_payload(self) -> &'a [u8] {
+        let b = self.buffer;
+        &b[1..b.len() - 2]
+    }
 }
 
 #[cfg(test)]

@@ -1,22 +1,65 @@
 //! # protocol: the wire between the host and the car
 //!
-//! `no_std`, no heap, no `unsafe` (DESIGN section 7).
+//! `no_std`, no heap, no `unsafe` (DESIGN section 7). Every buffer is a fixed array whose size is
+//! a compile-time constant checked against the largest message.
 //!
+//! ```text
+//!  Message ──emit──▶ envelope [version | postcard | CRC-16] ──Segmenter──▶ CAN frames (SF/FF/CF)
+//!                                                                            │ bus, id per stream
+//!  Message ◀─parse── envelope ◀────────── Reassembler (one per stream) ◀─────┘
+//! ```
+//!
+//! * [`message`]: the messages (observation, action command, feedback, ack/nack, heartbeat,
+//!   weights report, configuration, reset, error), their maximum sizes, total decoding.
+//! * [`envelope`]: the versioned, CRC-checked postcard envelope and its checked view.
 //! * [`can`]: checked CAN / CAN FD frames and the [`can::CanBus`] trait transports implement.
-//! * [`envelope`]: the versioned, CRC-checked postcard envelope.
 //! * [`slcan`]: the Lawicel serial-line CAN codec (the car's UART speaks it).
+//! * [`stream`]: the CAN identifier plan, one identifier per message class and direction.
+//! * [`isotp`]: ISO-TP-style segmentation and fixed-buffer reassembly for classic CAN and CAN FD.
+//! * [`link`]: the two glued together: [`link::transmit`] and the per-stream [`link::Inbox`].
+//! * [`delivery`]: acknowledged feedback: retransmission with bounded retries, dedupe window.
+//! * [`budget`]: bits on the wire per frame, message and control tick; bus load.
 //!
-//! Every message travels inside an
-//! [`envelope`]: a protocol version byte, the postcard encoding of the value, and a CRC-16 over
-//! both. Decoding is total: any byte sequence gives a value or an [`EnvelopeError`], never a
-//! panic.
+//! Decoding is total: any byte sequence gives a value or an error, never a panic (fuzzed in
+//! `fuzz/`). The wire format is specified in `docs/protocol.md`.
+//!
+//! One tick, end to end:
+//!
+//! ```
+//! use firmware_core::{ActionFeedback, ActionIndex, Feedback};
+//! use firmware_core::observation::Observation;
+//! use protocol::isotp::{FeedResult, FrameMode, Reassembler, Segmenter};
+//! use protocol::message::{Message, ObservationMessage, MAX_MESSAGE_SIZE};
+//! use protocol::stream::{Direction, Stream};
+//!
+//! let msg = Message::Observation(ObservationMessage { tick: 7, observation: Observation::open_space() });
+//! let stream = Stream::for_kind(msg.kind(), Direction::HostToCar).unwrap();
+//! let mut buf = [0u8; MAX_MESSAGE_SIZE];
+//! let bytes = msg.emit(&mut buf).unwrap();
+//! let mut rx: Reassembler = Reassembler::new();
+//! let mut frames = 0;
+//! for frame in Segmenter::new(stream.id(), bytes, FrameMode::Classic).unwrap() {
+//!     frames += 1;
+//!     if let FeedResult::Complete(b) = rx.feed(&frame, 0) {
+//!         assert_eq!(Message::parse(b).unwrap(), msg);
+//!     }
+//! }
+//! assert_eq!(frames, 40); // 278 bytes: a first frame (6 bytes) and 39 consecutive frames (7 each)
+//! ```
 
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod budget;
 pub mod can;
+pub mod delivery;
 pub mod envelope;
+pub mod isotp;
+pub mod link;
+pub mod message;
 pub mod slcan;
+pub mod stream;
 
 pub use envelope::{ENVELOPE_OVERHEAD, EnvelopeError, PROTOCOL_VERSION, open, seal};
+pub use message::{DecodeError, MAX_MESSAGE_SIZE, Message, MessageKind};

@@ -1,0 +1,200 @@
+//! Writes the seed corpus of the fuzz targets from real encoded messages:
+//! `fuzz/corpus/frame_decode/*.bin` (sealed messages) and `fuzz/corpus/reassembler_feed/*.bin`
+//! (their CAN frames, in the record format `fuzz/fuzz_targets/reassembler_feed.rs` reads).
+//!
+//! ```text
+//! cargo run -p protocol --example fuzz_seeds [-- OUT_DIR]     # default: fuzz/corpus
+//! ```
+
+use std::path::PathBuf;
+
+use firmware_core::feature::Feature;
+use firmware_core::observation::{Observation, SemanticClass, SemanticObject};
+use firmware_core::{
+    ActionFeedback, ActionIndex, Feedback, Learner, LearnerParams, PreferenceFeedback,
+    SemanticFeedback,
+};
+use protocol::can::{CanFrame, FD_LENGTHS};
+use protocol::isotp::{FrameMode, Segmenter};
+use protocol::message::{
+    ActionCommand, DeliveryId, ErrorCode, ErrorReport, FeedbackMessage, Heartbeat,
+    MAX_MESSAGE_SIZE, Message, ObservationMessage,
+};
+use protocol::stream::{Direction, Stream};
+
+fn a(i: usize) -> ActionIndex {
+    ActionIndex::new(i).expect("below 64")
+}
+
+fn messages() -> Vec<(&'static str, Message)> {
+    let mut full = Observation::open_space();
+    for i in 0..8 {
+        let o = SemanticObject {
+            class: SemanticClass::ALL[i % 3],
+            x: 1.0 + i as f32,
+            y: -1.0,
+            radius: 0.4,
+        };
+        full.objects.push(o).expect("8 objects fit");
+    }
+    full.scan.ranges[10] = 0.75;
+    let id = DeliveryId {
+        session: 3,
+        seq: 250,
+    };
+    let feedback = |tick, feedback| Message::Feedback(FeedbackMessage { id, tick, feedback });
+    let learner = Learner::new(LearnerParams::default().check().expect("default is valid"));
+    vec![
+        (
+            "observation_open",
+            Message::Observation(ObservationMessage {
+                tick: 1,
+                observation: Observation::open_space(),
+            }),
+        ),
+        (
+            "observation_full",
+            Message::Observation(ObservationMessage {
+                tick: u32::MAX,
+                observation: full,
+            }),
+        ),
+        (
+            "action",
+            Message::Action(ActionCommand::new(41, Some(a(12)))),
+        ),
+        ("stop", Message::Action(ActionCommand::stop(42))),
+        (
+            "feedback_action",
+            feedback(41, Feedback::Action(ActionFeedback { action: a(5) })),
+        ),
+        (
+            "feedback_preference",
+            feedback(
+                40,
+                Feedback::Preference(PreferenceFeedback {
+                    preferred: a(2),
+                    other: a(60),
+                }),
+            ),
+        ),
+        (
+            "feedback_semantic",
+            feedback(
+                39,
+                Feedback::Semantic(
+                    SemanticFeedback::new()
+                        .avoid(Feature::Stairs)
+                        .prefer(Feature::Right),
+                ),
+            ),
+        ),
+        ("ack", Message::Ack(protocol::message::Ack { id })),
+        (
+            "nack",
+            Message::Nack(protocol::message::Nack {
+                id,
+                code: protocol::message::NackCode::UnknownTick,
+            }),
+        ),
+        ("heartbeat", Message::Heartbeat(Heartbeat { counter: 513 })),
+        ("weights", Message::Weights(learner.snapshot())),
+        ("configure", Message::Configure(LearnerParams::paper())),
+        ("reset", Message::Reset),
+        (
+            "error",
+            Message::Error(ErrorReport {
+                code: ErrorCode::Observation,
+                tick: Some(41),
+            }),
+        ),
+    ]
+}
+
+/// One frame as a `reassembler_feed` record, `dt` milliseconds (a multiple of 4) after the
+/// previous one.
+fn record(out: &mut Vec<u8>, frame: &CanFrame, dt: u32) {
+    let stream = Stream::from_id(frame.id()).expect("frames of the plan");
+    let selector = match stream.direction {
+        Direction::HostToCar => stream.index() as u8,
+        Direction::CarToHost => 6,
+    };
+    let ctrl = selector | if frame.is_fd() { 0x08 } else { 0 } | ((dt / 4) as u8) << 4;
+    let n = frame.data().len();
+    let code = if frame.is_fd() {
+        FD_LENGTHS.iter().position(|&l| l == n).expect("FD length") as u8
+    } else {
+        n as u8
+    };
+    out.extend_from_slice(&[ctrl, code]);
+    out.extend_from_slice(frame.data());
+}
+
+fn frames(msg: &Message, mode: FrameMode) -> Vec<CanFrame> {
+    let dir = if Stream::for_kind(msg.kind(), Direction::HostToCar).is_some() {
+        Direction::HostToCar
+    } else {
+        Direction::CarToHost
+    };
+    let stream = Stream::for_kind(msg.kind(), dir).expect("every kind travels some way");
+    let mut buf = [0u8; MAX_MESSAGE_SIZE];
+    let bytes = msg.emit(&mut buf).expect("fits");
+    Segmenter::new(stream.id(), bytes, mode)
+        .expect("non-empty, short")
+        .collect()
+}
+
+fn main() -> std::io::Result<()> {
+    let out = std::env::args()
+        .nth(1)
+        .map_or_else(|| PathBuf::from("fuzz/corpus"), PathBuf::from);
+    let decode_dir = out.join("frame_decode");
+    let feed_dir = out.join("reassembler_feed");
+    std::fs::create_dir_all(&decode_dir)?;
+    std::fs::create_dir_all(&feed_dir)?;
+    let msgs = messages();
+    let mut count = 0;
+    for (name, msg) in &msgs {
+        let mut buf = [0u8; MAX_MESSAGE_SIZE];
+        std::fs::write(
+            decode_dir.join(format!("{name}.bin")),
+            msg.emit(&mut buf).expect("fits"),
+        )?;
+        count += 1;
+    }
+    // Frames of the host's messages (what the car's inbox reassembles), classic and FD.
+    for (name, msg) in msgs
+        .iter()
+        .filter(|(_, m)| Stream::for_kind(m.kind(), Direction::HostToCar).is_some())
+    {
+        for (mode, suffix) in [(FrameMode::Classic, "classic"), (FrameMode::Fd, "fd")] {
+            let mut rec = Vec::new();
+            for f in frames(msg, mode) {
+                record(&mut rec, &f, 0);
+            }
+            std::fs::write(feed_dir.join(format!("{name}_{suffix}.bin")), rec)?;
+            count += 1;
+        }
+    }
+    // An observation interleaved with a heartbeat and a feedback, one frame lost, a late frame.
+    let obs = frames(&msgs[0].1, FrameMode::Classic);
+    let hb = frames(&msgs[9].1, FrameMode::Classic);
+    let fb = frames(&msgs[4].1, FrameMode::Classic);
+    let mut rec = Vec::new();
+    for (i, f) in obs.iter().enumerate() {
+        if i == 7 {
+            continue; // lost: a gap
+        }
+        record(&mut rec, f, if i == 20 { 60 } else { 0 }); // late: a timeout
+        if i == 3 {
+            record(&mut rec, &hb[0], 4);
+            for g in &fb {
+                record(&mut rec, g, 0);
+            }
+        }
+    }
+    std::fs::write(feed_dir.join("interleaved_faults.bin"), rec)?;
+    count += 1;
+    println!("wrote {count} seeds under {}", out.display());
+    Ok(())
+}

@@ -1,0 +1,479 @@
+//! Messages over a [`CanBus`]: encode, segment and transmit; receive, reassemble per stream,
+//! decode.
+//!
+//! [`transmit`] seals a message, picks its stream from the [id plan](crate::stream) and sends
+//! its frames. An [`Inbox`] holds one [`Reassembler`] per stream of the direction it receives,
+//! so messages on different identifiers may interleave; it ignores frames that are not for it
+//! (other identifiers share the bus) and checks that every message came on its own stream.
+//!
+//! ```
+//! use protocol::can::{CanBus, CanFrame};
+//! use protocol::isotp::FrameMode;
+//! use protocol::link::{Inbox, Received, transmit};
+//! use protocol::message::{Heartbeat, Message};
+//! use protocol::stream::Direction;
+//!
+//! /// A loopback bus holding one message's frames.
+//! struct Loop(Vec<CanFrame>);
+//! impl CanBus for Loop {
+//!     type Error = ();
+//!     fn transmit(&mut self, f: &CanFrame) -> Result<(), ()> { self.0.push(*f); Ok(()) }
+//!     fn receive(&mut self) -> Result<Option<CanFrame>, ()> {
+//!         Ok(if self.0.is_empty() { None } else { Some(self.0.remove(0)) })
+//!     }
+//! }
+//!
+//! let mut bus = Loop(Vec::new());
+//! let hb = Message::Heartbeat(Heartbeat { counter: 9 });
+//! transmit(&mut bus, &hb, Direction::HostToCar, FrameMode::Classic).unwrap();
+//! let mut car = Inbox::new(Direction::HostToCar);
+//! let frame = bus.receive().unwrap().unwrap();
+//! assert_eq!(car.feed(&frame, 0), Received::Message(hb));
+//! ```
+
+use core::fmt;
+
+use crate::can::{CanBus, CanFrame};
+use crate::envelope::EnvelopeError;
+use crate::isotp::{FeedResult, FrameMode, Reassembler, ReassemblyError, SegmentError, Segmenter};
+use crate::message::{DecodeError, ErrorCode, MAX_MESSAGE_SIZE, Message, MessageKind};
+use crate::stream::{CLASS_COUNT, Class, Direction, Stream};
+
+// Acks, nacks and heartbeats are one classic frame each; an action command is one CAN FD frame.
+const _: () = assert!(
+    MessageKind::Ack.max_encoded_size() <= FrameMode::Classic.single_frame_capacity()
+        && MessageKind::Nack.max_encoded_size() <= FrameMode::Classic.single_frame_capacity()
+        && MessageKind::Heartbeat.max_encoded_size() <= FrameMode::Classic.single_frame_capacity()
+        && MessageKind::Reset.max_encoded_size() <= FrameMode::Classic.single_frame_capacity(),
+    "safety and acknowledgement messages fit one classic frame"
+);
+const _: () = assert!(
+    MessageKind::Action.max_encoded_size() <= FrameMode::Fd.single_frame_capacity(),
+    "an action command fits one CAN FD frame"
+);
+
+/// Why a message could not be transmitted.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
+pub enum TransmitError<E> {
+    /// The message does not travel in that direction.
+    WrongDirection(MessageKind),
+    /// It could not be encoded (cannot happen with this crate's buffers; kept for safety).
+    Encode(EnvelopeError),
+    /// It could not be segmented (idem).
+    Segment(SegmentError),
+    /// The bus refused a frame after `sent` frames had gone out: the receiver will drop the
+    /// partial message (gap or timeout); send the whole message again.
+    Bus {
+        /// Frames already transmitted.
+        sent: usize,
+        /// The transport's error.
+        error: E,
+    },
+}
+
+impl<E: fmt::Debug> fmt::Display for TransmitError<E> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TransmitError::WrongDirection(k) => write!(f, "{k} does not travel that way"),
+            TransmitError::Encode(e) => write!(f, "encoding: {e}"),
+            TransmitError::Segment(e) => write!(f, "segmentation: {e}"),
+            TransmitError::Bus { sent, error } => {
+                write!(f, "bus refused frame {sent}: {error:?}")
+            }
+        }
+    }
+}
+
+impl<E: fmt::Debug> core::error::Error for TransmitError<E> {}
+
+/// Seals `msg`, segments it for `mode` onto its stream in `direction` and transmits every frame.
+/// Returns the number of frames sent.
+pub fn transmit<B: CanBus>(
+    bus: &mut B,
+    msg: &Message,
+    direction: Direction,
+    mode: FrameMode,
+) -> Result<usize, TransmitError<B::Error>> {
+    let stream =
+        Stream::for_kind(msg.kind(), direction).ok_or(TransmitError::WrongDirection(msg.kind()))?;
+    let mut buf = [0u8; MAX_MESSAGE_SIZE];
+    let bytes = msg.emit(&mut buf).map_err(TransmitError::Encode)?;
+    let frames = Segmenter::new(stream.id(), bytes, mode).map_err(TransmitError::Segment)?;
+    let mut sent = 0;
+    for frame in frames {
+        bus.transmit(&frame)
+            .map_err(|error| TransmitError::Bus { sent, error })?;
+        sent += 1;
+    }
+    Ok(sent)
+}
+
+/// Why a received message was lost.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
+pub enum LinkError {
+    /// Its stream could not be reassembled.
+    Reassembly(Stream, ReassemblyError),
+    /// It did not decode.
+    Decode(Stream, DecodeError),
+    /// It decoded, but does not belong on the stream it came on.
+    WrongStream(Stream, MessageKind),
+}
+
+impl LinkError {
+    /// The [`ErrorCode`] to report it with.
+    pub const fn code(self) -> ErrorCode {
+        match self {
+            LinkError::Reassembly(..) => ErrorCode::Reassembly,
+            LinkError::Decode(_, e) => e.code(),
+            LinkError::WrongStream(..) => ErrorCode::WrongStream,
+        }
+    }
+
+    /// The stream it happened on.
+    pub const fn stream(self) -> Stream {
+        match self {
+            LinkError::Reassembly(s, _)
+            | LinkError::Decode(s, _)
+            | LinkError::WrongStream(s, _) => s,
+        }
+    }
+}
+
+impl fmt::Display for LinkError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            LinkError::Reassembly(s, e) => write!(f, "{s}: {e}"),
+            LinkError::Decode(s, e) => write!(f, "{s}: {e}"),
+            LinkError::WrongStream(s, k) => write!(f, "{s}: {k} does not belong here"),
+        }
+    }
+}
+
+impl core::error::Error for LinkError {}
+
+/// What one frame brought.
+#[expect(
+    clippy::large_enum_variant,
+    reason = "no heap: the message is returned by value"
+)]
+#[derive(Clone, PartialEq, Debug)]
+pub enum Received {
+    /// Nothing yet: the frame was part of a message, or not for this inbox.
+    Nothing,
+    /// A whole message.
+    Message(Message),
+    /// A message was lost.
+    Error(LinkError),
+}
+
+/// The receiving side of one node: a reassembler per stream of one direction.
+#[derive(Clone, Debug)]
+pub struct Inbox {
+    direction: Direction,
+    streams: [Reassembler; CLASS_COUNT],
+}
+
+impl Inbox {
+    /// An inbox for the messages travelling in `direction` (the car's inbox takes
+    /// [`Direction::HostToCar`]).
+    pub const fn new(direction: Direction) -> Self {
+        Self {
+            direction,
+            streams: [const { Reassembler::new() }; CLASS_COUNT],
+        }
+    }
+
+    /// An inbox whose reassemblers give up after `timeout_ms` between frames.
+    pub const fn with_timeout(direction: Direction, timeout_ms: u32) -> Self {
+        Self {
+            direction,
+            streams: [const { Reassembler::new() }; CLASS_COUNT],
+        }
+        .timeout(timeout_ms)
+    }
+
+    const fn timeout(mut self, timeout_ms: u32) -> Self {
+        let mut i = 0;
+        while i < CLASS_COUNT {
+            self.streams[i] = Reassembler::with_timeout(timeout_ms);
+            i += 1;
+        }
+        self
+    }
+
+    /// The direction received.
+    pub const fn direction(&self) -> Direction {
+        self.direction
+    }
+
+    /// Takes one frame received at `now` (ms).
+    pub fn feed(&mut self, frame: &CanFrame, now: u32) -> Received {
+        let Some(stream) = Stream::from_id(frame.id()) else {
+            return Received::Nothing;
+        };
+        if stream.direction != self.direction {
+            return Received::Nothing;
+        }
+        match self.streams[stream.index()].feed(frame, now) {
+            FeedResult::Consumed => Received::Nothing,
+            FeedResult::Error(e) => Received::Error(LinkError::Reassembly(stream, e)),
+            FeedResult::Complete(bytes) => match Message::parse(bytes) {
+                Err(e) => Received::Error(LinkError::Decode(stream, e)),
+                Ok(msg) if !stream.carries(msg.kind()) => {
+                    Received::Error(LinkError::WrongStream(stream, msg.kind()))
+                }
+                Ok(msg) => Received::Message(msg),
+            },
+        }
+    }
+
+    /// The next stream whose message in progress is overdue at `now`, ended with a timeout.
+    /// Call until `None`.
+    pub fn poll(&mut self, now: u32) -> Option<LinkError> {
+        Class::ALL
+            .iter()
+            .zip(self.streams.iter_mut())
+            .find_map(|(&class, r)| {
+                r.poll(now)
+                    .map(|e| LinkError::Reassembly(Stream::new(class, self.direction), e))
+            })
+    }
+
+    /// Drops every message in progress.
+    pub fn reset(&mut self) {
+        for r in &mut self.streams {
+            r.reset();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::can::CanId;
+    use crate::message::strategies::message;
+    use crate::message::{ActionCommand, Heartbeat, ObservationMessage};
+    use firmware_core::observation::Observation;
+    use proptest::prelude::*;
+    use std::vec::Vec;
+
+    /// Collects frames; refuses the frame number `fail_at`.
+    #[derive(Default)]
+    struct Wire {
+        frames: Vec<CanFrame>,
+        fail_at: Option<usize>,
+    }
+
+    impl CanBus for Wire {
+        type Error = &'static str;
+        fn transmit(&mut self, f: &CanFrame) -> Result<(), &'static str> {
+            if self.fail_at == Some(self.frames.len()) {
+                return Err("queue full");
+            }
+            self.frames.push(*f);
+            Ok(())
+        }
+        fn receive(&mut self) -> Result<Option<CanFrame>, &'static str> {
+            Ok(None)
+        }
+    }
+
+    fn frames_of(msg: &Message, dir: Direction, mode: FrameMode) -> Vec<CanFrame> {
+        let mut w = Wire::default();
+        transmit(&mut w, msg, dir, mode).unwrap();
+        w.frames
+    }
+
+    fn observation(tick: u32) -> Message {
+        Message::Observation(ObservationMessage {
+            tick,
+            observation: Observation::open_space(),
+        })
+    }
+
+    #[test]
+    fn messages_go_on_their_streams() {
+        let f = frames_of(
+            &Message::Action(ActionCommand::stop(1)),
+            Direction::CarToHost,
+            FrameMode::Classic,
+        );
+        assert_eq!((f.len(), f[0].id()), (1, CanId::Standard(0x101)));
+        let f = frames_of(&observation(1), Direction::HostToCar, FrameMode::Fd);
+        assert!(
+            f.iter()
+                .all(|f| f.id() == CanId::Standard(0x104) && f.is_fd())
+        );
+        let mut w = Wire::default();
+        assert_eq!(
+            transmit(
+                &mut w,
+                &observation(1),
+                Direction::CarToHost,
+                FrameMode::Classic
+            ),
+            Err(TransmitError::WrongDirection(MessageKind::Observation))
+        );
+        assert!(w.frames.is_empty());
+        let mut w = Wire {
+            fail_at: Some(3),
+            ..Wire::default()
+        };
+        assert_eq!(
+            transmit(
+                &mut w,
+                &observation(1),
+                Direction::HostToCar,
+                FrameMode::Classic
+            ),
+            Err(TransmitError::Bus {
+                sent: 3,
+                error: "queue full"
+            })
+        );
+    }
+
+    #[test]
+    fn the_inbox_ignores_foreign_frames_and_the_other_direction() {
+        let mut car = Inbox::new(Direction::HostToCar);
+        let other = CanFrame::new(CanId::Standard(0x7F0), &[0x01, 0x00]).unwrap();
+        assert_eq!(car.feed(&other, 0), Received::Nothing);
+        let ext = CanFrame::new(CanId::Extended(0x104), &[0x01, 0x00]).unwrap();
+        assert_eq!(car.feed(&ext, 0), Received::Nothing);
+        for f in frames_of(
+            &Message::Heartbeat(Heartbeat { counter: 1 }),
+            Direction::CarToHost,
+            FrameMode::Classic,
+        ) {
+            assert_eq!(
+                car.feed(&f, 0),
+                Received::Nothing,
+                "the car's own heartbeat"
+            );
+        }
+    }
+
+    #[test]
+    fn a_message_on_the_wrong_stream_is_refused() {
+        // A heartbeat's bytes sent on the observation identifier.
+        let mut buf = [0u8; MAX_MESSAGE_SIZE];
+        let bytes = Message::Heartbeat(Heartbeat { counter: 1 })
+            .emit(&mut buf)
+            .unwrap();
+        let obs_stream = Stream::new(Class::Observation, Direction::HostToCar);
+        let mut car = Inbox::new(Direction::HostToCar);
+        let mut got = Vec::new();
+        for f in Segmenter::new(obs_stream.id(), bytes, FrameMode::Classic).unwrap() {
+            got.push(car.feed(&f, 0));
+        }
+        let e = LinkError::WrongStream(obs_stream, MessageKind::Heartbeat);
+        assert_eq!(got, [Received::Error(e)]);
+        assert_eq!(e.code(), ErrorCode::WrongStream);
+        // Corrupted bytes are a decode error on their stream.
+        let mut bad = bytes.to_vec();
+        bad[1] ^= 0x40;
+        let f = Segmenter::new(obs_stream.id(), &bad, FrameMode::Classic)
+            .unwrap()
+            .next()
+            .unwrap();
+        assert!(
+            matches!(car.feed(&f, 0), Received::Error(LinkError::Decode(s, _)) if s == obs_stream)
+        );
+    }
+
+    #[test]
+    fn an_error_on_one_stream_leaves_the_others_intact() {
+        let obs = frames_of(&observation(7), Direction::HostToCar, FrameMode::Classic);
+        let hb = Message::Heartbeat(Heartbeat { counter: 3 });
+        let hb_frames = frames_of(&hb, Direction::HostToCar, FrameMode::Classic);
+        let mut car = Inbox::with_timeout(Direction::HostToCar, 20);
+        // Half an observation, a heartbeat in between, then the observation loses a frame.
+        for f in &obs[..10] {
+            assert_eq!(car.feed(f, 0), Received::Nothing);
+        }
+        assert_eq!(car.feed(&hb_frames[0], 1), Received::Message(hb.clone()));
+        let obs_stream = Stream::new(Class::Observation, Direction::HostToCar);
+        assert_eq!(
+            car.feed(&obs[11], 2),
+            Received::Error(LinkError::Reassembly(
+                obs_stream,
+                ReassemblyError::Gap {
+                    expected: 10,
+                    got: 11
+                }
+            ))
+        );
+        assert_eq!(car.feed(&hb_frames[0], 3), Received::Message(hb.clone()));
+        // A timed-out observation, reported by poll, while the heartbeats go on.
+        for f in &obs[..5] {
+            assert_eq!(car.feed(f, 10), Received::Nothing);
+        }
+        assert_eq!(car.poll(30), None);
+        assert_eq!(car.feed(&hb_frames[0], 31), Received::Message(hb));
+        assert_eq!(
+            car.poll(31),
+            Some(LinkError::Reassembly(obs_stream, ReassemblyError::Timeout))
+        );
+        assert_eq!(car.poll(31), None);
+        // And a whole observation afterwards is fine.
+        let mut last = Received::Nothing;
+        for f in &obs {
+            last = car.feed(f, 40);
+        }
+        assert_eq!(last, Received::Message(observation(7)));
+    }
+
+    proptest! {
+        /// Random messages in both directions and modes, their frames interleaved on one bus:
+        /// each inbox gets exactly its direction's messages, in order per stream.
+        #[test]
+        fn interleaved_messages_arrive_intact(
+            msgs in proptest::collection::vec((message(), any::<bool>()), 1..6),
+            order in proptest::collection::vec(0usize..6, 1..40),
+            fd in any::<bool>(),
+        ) {
+            let mode = if fd { FrameMode::Fd } else { FrameMode::Classic };
+            // One message per stream at a time: keep the first of each stream.
+            let mut seen = Vec::new();
+            let mut sent = Vec::new();
+            for (m, to_car) in msgs {
+                let mut dir = if to_car { Direction::HostToCar } else { Direction::CarToHost };
+                if Stream::for_kind(m.kind(), dir).is_none() {
+                    dir = dir.reverse();
+                }
+                let s = Stream::for_kind(m.kind(), dir).unwrap();
+                if !seen.contains(&s) {
+                    seen.push(s);
+                    sent.push((frames_of(&m, dir, mode), m, dir));
+                }
+            }
+            let mut next = std::vec![0; sent.len()];
+            let mut car = Inbox::new(Direction::HostToCar);
+            let mut host = Inbox::new(Direction::CarToHost);
+            let mut got = Vec::new();
+            let total: usize = sent.iter().map(|s| s.0.len()).sum();
+            let mut picks = order.iter().cycle();
+            for _ in 0..total {
+                let mut k = *picks.next().unwrap() % sent.len();
+                while next[k] == sent[k].0.len() {
+                    k = (k + 1) % sent.len();
+                }
+                let f = sent[k].0[next[k]];
+                next[k] += 1;
+                for inbox in [&mut car, &mut host] {
+                    match inbox.feed(&f, 0) {
+                        Received::Nothing => {}
+                        Received::Message(m) => got.push((m, inbox.direction())),
+                        Received::Error(e) => prop_assert!(false, "{}", e),
+                    }
+                }
+            }
+            prop_assert_eq!(got.len(), sent.len());
+            for (_, m, dir) in &sent {
+                prop_assert!(got.contains(&(m.clone(), *dir)));
+            }
+        }
+    }
+}

@@ -1,0 +1,1136 @@
+//! The messages between the host and the car, their wire encoding and their size bounds.
+//!
+//! A [`Message`] is the typed representation; on the wire it is an [`envelope`](crate::envelope)
+//! (version byte, postcard payload, CRC-16). [`Message::emit`] writes one, [`Message::parse`]
+//! reads one.
+//!
+//! | # | variant | direction | payload |
+//! |---|---|---|---|
+//! | 0 | [`Message::Observation`] | host → car | [`ObservationMessage`]: tick number and [`Observation`] |
+//! | 1 | [`Message::Action`] | car → host | [`ActionCommand`]: tick number and the trajectory to track, or `None` (stop) |
+//! | 2 | [`Message::Feedback`] | host → car | [`FeedbackMessage`]: delivery id, tick number, [`Feedback`] |
+//! | 3 | [`Message::Ack`] | car → host | [`Ack`]: the delivery id of an applied feedback |
+//! | 4 | [`Message::Nack`] | car → host | [`Nack`]: the delivery id of a refused feedback and why |
+//! | 5 | [`Message::Heartbeat`] | both | [`Heartbeat`]: a wrapping counter |
+//! | 6 | [`Message::Weights`] | car → host | [`LearnerSnapshot`] |
+//! | 7 | [`Message::Configure`] | host → car | [`LearnerParams`] |
+//! | 8 | [`Message::Reset`] | host → car | nothing |
+//! | 9 | [`Message::Error`] | both | [`ErrorReport`] |
+//!
+//! The variant number is the first payload byte (a postcard varint); variants and fields are
+//! never reordered within a protocol version (the golden-bytes tests pin them). The largest
+//! sealed message of each kind is [`MessageKind::max_encoded_size`], a compile-time constant
+//! derived from postcard's `MaxSize`; [`MAX_MESSAGE_SIZE`] bounds them all and sizes every
+//! buffer.
+//!
+//! # Checked view, typed representation, panic contract
+//!
+//! [`Message::parse`] is total: any byte string gives a [`Message`] or a [`DecodeError`], never
+//! a panic. It checks the [`Envelope`] (length, CRC, version), decodes the payload with postcard
+//! (which range-checks action indices, enum tags and list lengths), requires every byte to be
+//! used, and checks the numbers the *protocol* defines (the [`Track`] of an action command:
+//! finite and within the car's limits). The values of `firmware-core` types (observation,
+//! feedback, parameters, snapshot) are checked by `firmware-core` when they are used
+//! ([`Observation::validate`], [`LearnerParams::check`], `Learner::restore`), so they are not
+//! checked twice.
+//!
+//! ```
+//! use protocol::message::{ActionCommand, Message, MAX_MESSAGE_SIZE};
+//! use firmware_core::ActionIndex;
+//!
+//! let cmd = Message::Action(ActionCommand::new(42, ActionIndex::new(0)));
+//! let mut buf = [0u8; MAX_MESSAGE_SIZE];
+//! let bytes = cmd.emit(&mut buf).unwrap();
+//! assert_eq!(Message::parse(bytes), Ok(cmd));
+//! assert!(Message::parse(&bytes[1..]).is_err());
+//! ```
+
+use core::fmt;
+
+use firmware_core::agent::FeedbackError;
+use firmware_core::lattice::{self, MAX_PLANNING_STEERING};
+use firmware_core::observation::MAX_SPEED;
+use firmware_core::{ActionIndex, Feedback, LearnerParams, LearnerSnapshot};
+use postcard::experimental::max_size::MaxSize;
+use serde::{Deserialize, Serialize};
+
+pub use firmware_core::observation::Observation;
+
+use crate::envelope::{ENVELOPE_OVERHEAD, Envelope, EnvelopeError, seal};
+
+/// Largest steering angle an action command may carry (rad): the car's mechanical limit.
+pub const MAX_STEERING: f32 = 0.34;
+
+/// Largest length of one segment of an action command (m).
+pub const MAX_SEGMENT_LENGTH: f32 = 1.0;
+
+const _: () = assert!(
+    MAX_PLANNING_STEERING <= MAX_STEERING,
+    "the lattice steers within reach"
+);
+const _: () = assert!(
+    lattice::CRUISE_SEGMENT_LENGTH <= MAX_SEGMENT_LENGTH
+        && lattice::CREEP_LENGTH <= MAX_SEGMENT_LENGTH,
+    "lattice segments fit an action command"
+);
+const _: () = assert!(
+    lattice::CRUISE_SPEED <= MAX_SPEED && lattice::CREEP_SPEED <= MAX_SPEED,
+    "lattice speeds fit an action command"
+);
+
+/// The observation of one tick, host → car.
+#[derive(Clone, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+pub struct ObservationMessage {
+    /// The tick number; the car's action command and any feedback name it.
+    pub tick: u32,
+    /// What the car observes.
+    pub observation: Observation,
+}
+
+/// One segment of the trajectory to track.
+#[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+pub struct SegmentCommand {
+    /// Steering angle (rad, positive left), within ±[`MAX_STEERING`].
+    pub steering: f32,
+    /// Arc length (m), in `[0, MAX_SEGMENT_LENGTH]`.
+    pub length: f32,
+}
+
+/// What the tracking controller needs to follow one trajectory of the lattice.
+#[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+pub struct Track {
+    /// The action (trajectory) chosen.
+    pub action: ActionIndex,
+    /// Its two constant-curvature segments, in order.
+    pub segments: [SegmentCommand; 2],
+    /// The speed to drive it at (m/s), in `(0, MAX_SPEED]`.
+    pub speed: f32,
+}
+
+impl Track {
+    /// The lattice's trajectory of `action` (`firmware_core::lattice::trajectory`).
+    pub fn of(action: ActionIndex) -> Self {
+        let t = lattice::trajectory(action);
+        let seg = |i: usize| SegmentCommand {
+            steering: t.segments[i].steering,
+            length: t.segments[i].length,
+        };
+        Self {
+            action,
+            segments: [seg(0), seg(1)],
+            speed: t.speed,
+        }
+    }
+
+    /// Whether every number is finite and within the car's limits.
+    pub fn check(&self) -> Result<(), DecodeError> {
+        let segment_ok = |s: &SegmentCommand| {
+            s.steering.is_finite()
+                && s.steering.abs() <= MAX_STEERING
+                && s.length.is_finite()
+                && (0.0..=MAX_SEGMENT_LENGTH).contains(&s.length)
+        };
+        let speed_ok = self.speed.is_finite() && self.speed > 0.0 && self.speed <= MAX_SPEED;
+        if self.segments.iter().all(segment_ok) && speed_ok {
+            Ok(())
+        } else {
+            Err(DecodeError::InvalidTrack)
+        }
+    }
+}
+
+/// The car's decision for a tick, car → host.
+#[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+pub struct ActionCommand {
+    /// The tick of the observation this answers.
+    pub tick: u32,
+    /// The trajectory to track; `None`: every trajectory collides, stop.
+    pub track: Option<Track>,
+}
+
+impl ActionCommand {
+    /// The command for `action` in `tick`: its lattice trajectory, or a stop for `None`.
+    pub fn new(tick: u32, action: Option<ActionIndex>) -> Self {
+        Self {
+            tick,
+            track: action.map(Track::of),
+        }
+    }
+
+    /// A stop in `tick`.
+    pub const fn stop(tick: u32) -> Self {
+        Self { tick, track: None }
+    }
+}
+
+impl From<&firmware_core::agent::Decision> for ActionCommand {
+    fn from(d: &firmware_core::agent::Decision) -> Self {
+        Self::new(d.tick, d.action)
+    }
+}
+
+/// Identifies one feedback delivery: the sender's session and its sequence number in it.
+///
+/// A sender picks a new `session` whenever it starts (a boot counter, or a random byte), and
+/// numbers its feedback `seq = 0, 1, 2, …` wrapping at 256. See [`crate::delivery`].
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+pub struct DeliveryId {
+    /// The sender's session.
+    pub session: u8,
+    /// The sequence number within the session (wrapping).
+    pub seq: u8,
+}
+
+/// Feedback about one tick, host → car; acknowledged by an [`Ack`] or a [`Nack`].
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize, MaxSize)]
+pub struct FeedbackMessage {
+    /// The delivery this is (retransmissions repeat it).
+    pub id: DeliveryId,
+    /// The tick the feedback refers to.
+    pub tick: u32,
+    /// The teacher's feedback.
+    pub feedback: Feedback,
+}
+
+/// The feedback `id` was applied (now or the first time it arrived).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+pub struct Ack {
+    /// The delivery acknowledged.
+    pub id: DeliveryId,
+}
+
+/// Why a feedback was refused. The sender does not retransmit it.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+#[non_exhaustive]
+pub enum NackCode {
+    /// The tick is not among the car's recent ticks (or it had no action then).
+    UnknownTick,
+    /// The learner refused the feedback (degenerate, not allowed, bad numbers).
+    Rejected,
+    /// The sequence number is older than the receiver's dedupe window: it cannot tell whether
+    /// it was applied, so it is not applied again.
+    Stale,
+}
+
+impl fmt::Display for NackCode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            NackCode::UnknownTick => "unknown tick",
+            NackCode::Rejected => "feedback rejected by the learner",
+            NackCode::Stale => "sequence number older than the dedupe window",
+        })
+    }
+}
+
+impl From<&FeedbackError> for NackCode {
+    fn from(e: &FeedbackError) -> Self {
+        match e {
+            FeedbackError::UnknownTick(_) => NackCode::UnknownTick,
+            _ => NackCode::Rejected,
+        }
+    }
+}
+
+/// The feedback `id` was not applied, because of `code`.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+pub struct Nack {
+    /// The delivery refused.
+    pub id: DeliveryId,
+    /// Why.
+    pub code: NackCode,
+}
+
+/// "I am alive": each side sends one per tick with a counter that increases by one (wrapping),
+/// so a receiver's watchdog can tell a live peer from a stuck one repeating itself.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+pub struct Heartbeat {
+    /// Wrapping counter.
+    pub counter: u16,
+}
+
+/// What went wrong, in an [`ErrorReport`].
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+#[non_exhaustive]
+pub enum ErrorCode {
+    /// A message did not decode (CRC, encoding, trailing bytes, invalid track).
+    Decode,
+    /// A message came with another protocol version.
+    Version,
+    /// A CAN stream could not be reassembled (gap, timeout, overlong, unexpected frame).
+    Reassembly,
+    /// A message came on a stream that does not carry it.
+    WrongStream,
+    /// The observation of the tick was refused (`Observation::validate`).
+    Observation,
+    /// The learner configuration was refused (`LearnerParams::check`).
+    Params,
+    /// The receiver could not do what the message asked for another reason.
+    Internal,
+}
+
+impl fmt::Display for ErrorCode {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            ErrorCode::Decode => "message does not decode",
+            ErrorCode::Version => "other protocol version",
+            ErrorCode::Reassembly => "CAN reassembly failed",
+            ErrorCode::WrongStream => "message on the wrong CAN stream",
+            ErrorCode::Observation => "observation refused",
+            ErrorCode::Params => "learner configuration refused",
+            ErrorCode::Internal => "internal error",
+        })
+    }
+}
+
+/// A report of something that went wrong at the sender.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+pub struct ErrorReport {
+    /// What went wrong.
+    pub code: ErrorCode,
+    /// The tick concerned, if any.
+    pub tick: Option<u32>,
+}
+
+/// Every message of the protocol. See the module documentation for the table.
+///
+/// The observation makes it about 400 bytes; without a heap there is no boxing it, and a
+/// message lives in one place (a static or the stack of the loop that handles it).
+#[expect(
+    clippy::large_enum_variant,
+    reason = "no heap: the observation is stored inline"
+)]
+#[derive(Clone, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+pub enum Message {
+    /// An observation, host → car.
+    Observation(ObservationMessage),
+    /// An action command (or stop), car → host.
+    Action(ActionCommand),
+    /// Feedback, host → car.
+    Feedback(FeedbackMessage),
+    /// Feedback applied, car → host.
+    Ack(Ack),
+    /// Feedback refused, car → host.
+    Nack(Nack),
+    /// Alive, both ways.
+    Heartbeat(Heartbeat),
+    /// The learner's parameters and state, car → host.
+    Weights(LearnerSnapshot),
+    /// New learner parameters, host → car (the car answers with a weights report or an error).
+    Configure(LearnerParams),
+    /// Host → car: stop, forget the recent ticks and the feedback dedupe window, keep the
+    /// learner. The host sends it when it (re)starts.
+    Reset,
+    /// Something went wrong, both ways.
+    Error(ErrorReport),
+}
+
+/// The kind of a [`Message`], without its payload: the variant, in the same order.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+#[repr(u8)]
+pub enum MessageKind {
+    /// [`Message::Observation`].
+    Observation = 0,
+    /// [`Message::Action`].
+    Action = 1,
+    /// [`Message::Feedback`].
+    Feedback = 2,
+    /// [`Message::Ack`].
+    Ack = 3,
+    /// [`Message::Nack`].
+    Nack = 4,
+    /// [`Message::Heartbeat`].
+    Heartbeat = 5,
+    /// [`Message::Weights`].
+    Weights = 6,
+    /// [`Message::Configure`].
+    Configure = 7,
+    /// [`Message::Reset`].
+    Reset = 8,
+    /// [`Message::Error`].
+    Error = 9,
+}
+
+/// Bytes of a variant number (postcard varint of values below 128).
+const TAG: usize = 1;
+
+const fn sealed(payload_max: usize) -> usize {
+    ENVELOPE_OVERHEAD + TAG + payload_max
+}
+
+impl MessageKind {
+    /// Every kind, in variant order.
+    pub const ALL: [MessageKind; 10] = [
+        MessageKind::Observation,
+        MessageKind::Action,
+        MessageKind::Feedback,
+        MessageKind::Ack,
+        MessageKind::Nack,
+        MessageKind::Heartbeat,
+        MessageKind::Weights,
+        MessageKind::Configure,
+        MessageKind::Reset,
+        MessageKind::Error,
+    ];
+
+    /// The largest sealed message of this kind (envelope included), in bytes.
+    pub const fn max_encoded_size(self) -> usize {
+        match self {
+            MessageKind::Observation => sealed(ObservationMessage::POSTCARD_MAX_SIZE),
+            MessageKind::Action => sealed(ActionCommand::POSTCARD_MAX_SIZE),
+            MessageKind::Feedback => sealed(FeedbackMessage::POSTCARD_MAX_SIZE),
+            MessageKind::Ack => sealed(Ack::POSTCARD_MAX_SIZE),
+            MessageKind::Nack => sealed(Nack::POSTCARD_MAX_SIZE),
+            MessageKind::Heartbeat => sealed(Heartbeat::POSTCARD_MAX_SIZE),
+            MessageKind::Weights => sealed(LearnerSnapshot::POSTCARD_MAX_SIZE),
+            MessageKind::Configure => sealed(LearnerParams::POSTCARD_MAX_SIZE),
+            MessageKind::Reset => sealed(0),
+            MessageKind::Error => sealed(ErrorReport::POSTCARD_MAX_SIZE),
+        }
+    }
+
+    /// A short name ("observation", "action", …).
+    pub const fn name(self) -> &'static str {
+        match self {
+            MessageKind::Observation => "observation",
+            MessageKind::Action => "action",
+            MessageKind::Feedback => "feedback",
+            MessageKind::Ack => "ack",
+            MessageKind::Nack => "nack",
+            MessageKind::Heartbeat => "heartbeat",
+            MessageKind::Weights => "weights",
+            MessageKind::Configure => "configure",
+            MessageKind::Reset => "reset",
+            MessageKind::Error => "error",
+        }
+    }
+}
+
+impl fmt::Display for MessageKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The largest sealed message of any kind: the size of every message buffer.
+pub const MAX_MESSAGE_SIZE: usize = ENVELOPE_OVERHEAD + Message::POSTCARD_MAX_SIZE;
+
+const fn largest_kind() -> usize {
+    let mut max = 0;
+    let mut i = 0;
+    while i < MessageKind::ALL.len() {
+        let n = MessageKind::ALL[i].max_encoded_size();
+        if n > max {
+            max = n;
+        }
+        i += 1;
+    }
+    max
+}
+
+const _: () = assert!(
+    MessageKind::ALL.len() < 128,
+    "variant numbers are one-byte varints"
+);
+const _: () = assert!(
+    largest_kind() == MAX_MESSAGE_SIZE,
+    "the per-kind bounds and the message bound agree"
+);
+
+/// Why bytes did not decode as a [`Message`].
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[non_exhaustive]
+pub enum DecodeError {
+    /// The envelope or its payload is bad (length, CRC, version, encoding, trailing bytes).
+    Envelope(EnvelopeError),
+    /// An action command's track has a non-finite or out-of-range number.
+    InvalidTrack,
+}
+
+impl fmt::Display for DecodeError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            DecodeError::Envelope(e) => e.fmt(f),
+            DecodeError::InvalidTrack => f.write_str("action command out of the car's limits"),
+        }
+    }
+}
+
+impl core::error::Error for DecodeError {}
+
+impl From<EnvelopeError> for DecodeError {
+    fn from(e: EnvelopeError) -> Self {
+        DecodeError::Envelope(e)
+    }
+}
+
+impl DecodeError {
+    /// The [`ErrorCode`] to report this error with.
+    pub const fn code(self) -> ErrorCode {
+        match self {
+            DecodeError::Envelope(EnvelopeError::Version(_)) => ErrorCode::Version,
+            _ => ErrorCode::Decode,
+        }
+    }
+}
+
+impl Message {
+    /// The kind of this message.
+    pub const fn kind(&self) -> MessageKind {
+        match self {
+            Message::Observation(_) => MessageKind::Observation,
+            Message::Action(_) => MessageKind::Action,
+            Message::Feedback(_) => MessageKind::Feedback,
+            Message::Ack(_) => MessageKind::Ack,
+            Message::Nack(_) => MessageKind::Nack,
+            Message::Heartbeat(_) => MessageKind::Heartbeat,
+            Message::Weights(_) => MessageKind::Weights,
+            Message::Configure(_) => MessageKind::Configure,
+            Message::Reset => MessageKind::Reset,
+            Message::Error(_) => MessageKind::Error,
+        }
+    }
+
+    /// Writes the sealed message into `buf` and returns the bytes written. A buffer of
+    /// [`MAX_MESSAGE_SIZE`] bytes always suffices.
+    pub fn emit<'b>(&self, buf: &'b mut [u8]) -> Result<&'b [u8], EnvelopeError> {
+        seal(self, buf)
+    }
+
+    /// Reads a sealed message. Total: any bytes give a message or an error.
+    pub fn parse(bytes: &[u8]) -> Result<Message, DecodeError> {
+        let payload = Envelope::new_checked(bytes)?.into_payload();
+        let (msg, rest) = postcard::take_from_bytes::<Message>(payload)
+            .map_err(|_| DecodeError::Envelope(EnvelopeError::Decode))?;
+        if !rest.is_empty() {
+            return Err(DecodeError::Envelope(EnvelopeError::TrailingBytes));
+        }
+        if let Message::Action(ActionCommand {
+            track: Some(track), ..
+        }) = &msg
+        {
+            track.check()?;
+        }
+        Ok(msg)
+    }
+}
+
+impl From<Ack> for Message {
+    fn from(a: Ack) -> Self {
+        Message::Ack(a)
+    }
+}
+
+impl From<Nack> for Message {
+    fn from(n: Nack) -> Self {
+        Message::Nack(n)
+    }
+}
+
+impl From<FeedbackMessage> for Message {
+    fn from(f: FeedbackMessage) -> Self {
+        Message::Feedback(f)
+    }
+}
+
+impl From<ActionCommand> for Message {
+    fn from(a: ActionCommand) -> Self {
+        Message::Action(a)
+    }
+}
+
+/// Proptest strategies for messages, shared by the tests of this crate.
+#[cfg(test)]
+pub(crate) mod strategies {
+    use super::*;
+    use firmware_core::feature::Feature;
+    use firmware_core::observation::{MAX_OBJECTS, PathReference, SemanticClass, SemanticObject};
+    use firmware_core::{
+        ActionFeedback, LearnerKind, LearnerState, Polarity, PreferenceFeedback, SemanticFeedback,
+    };
+    use proptest::prelude::*;
+
+    fn real() -> impl Strategy<Value = f32> {
+        -1.0e3f32..1.0e3
+    }
+
+    fn action() -> impl Strategy<Value = ActionIndex> {
+        (0usize..64).prop_map(|a| ActionIndex::new(a).unwrap())
+    }
+
+    fn observation() -> impl Strategy<Value = Observation> {
+        let object =
+            (0usize..3, real(), real(), real()).prop_map(|(c, x, y, radius)| SemanticObject {
+                class: SemanticClass::ALL[c],
+                x,
+                y,
+                radius,
+            });
+        (
+            proptest::collection::vec(0.0f32..10.0, 64),
+            proptest::collection::vec(object, 0..=MAX_OBJECTS),
+            (real(), real(), real(), real()),
+        )
+            .prop_map(|(ranges, objects, (x, y, heading, speed))| {
+                let mut obs = Observation::open_space();
+                obs.scan.ranges.copy_from_slice(&ranges);
+                for o in objects {
+                    obs.objects.push(o).unwrap();
+                }
+                obs.reference = PathReference { x, y, heading };
+                obs.speed = speed;
+                obs
+            })
+    }
+
+    pub(crate) fn feedback() -> impl Strategy<Value = Feedback> {
+        prop_oneof![
+            action().prop_map(|action| Feedback::Action(ActionFeedback { action })),
+            (action(), action()).prop_map(|(preferred, other)| Feedback::Preference(
+                PreferenceFeedback { preferred, other }
+            )),
+            proptest::collection::vec(proptest::option::of(any::<bool>()), 6).prop_map(|ps| {
+                let mut s = SemanticFeedback::new();
+                for (f, p) in Feature::ALL.iter().zip(ps) {
+                    if let Some(prefer) = p {
+                        s = if prefer { s.prefer(*f) } else { s.avoid(*f) };
+                    }
+                }
+                Feedback::Semantic(s)
+            }),
+        ]
+    }
+
+    fn params() -> impl Strategy<Value = LearnerParams> {
+        (
+            0usize..5,
+            real(),
+            proptest::option::of(real()),
+            proptest::array::uniform6(real()),
+        )
+            .prop_map(|(k, step, radius, initial)| LearnerParams {
+                kind: LearnerKind::ALL[k],
+                step,
+                radius,
+                initial,
+            })
+    }
+
+    fn id() -> impl Strategy<Value = DeliveryId> {
+        (any::<u8>(), any::<u8>()).prop_map(|(session, seq)| DeliveryId { session, seq })
+    }
+
+    fn nack_code() -> impl Strategy<Value = NackCode> {
+        prop_oneof![
+            Just(NackCode::UnknownTick),
+            Just(NackCode::Rejected),
+            Just(NackCode::Stale)
+        ]
+    }
+
+    /// Any message `Message::parse` accepts.
+    pub(crate) fn message() -> impl Strategy<Value = Message> {
+        prop_oneof![
+            (any::<u32>(), observation()).prop_map(|(tick, observation)| Message::Observation(
+                ObservationMessage { tick, observation }
+            )),
+            (any::<u32>(), proptest::option::of(action()))
+                .prop_map(|(tick, a)| Message::Action(ActionCommand::new(tick, a))),
+            (id(), any::<u32>(), feedback()).prop_map(|(id, tick, feedback)| {
+                Message::Feedback(FeedbackMessage { id, tick, feedback })
+            }),
+            id().prop_map(|id| Message::Ack(Ack { id })),
+            (id(), nack_code()).prop_map(|(id, code)| Message::Nack(Nack { id, code })),
+            any::<u16>().prop_map(|counter| Message::Heartbeat(Heartbeat { counter })),
+            (
+                params(),
+                proptest::array::uniform6(real()),
+                proptest::array::uniform6(real()),
+                any::<u32>()
+            )
+                .prop_map(|(params, iterate, average, steps)| Message::Weights(
+                    LearnerSnapshot {
+                        version: firmware_core::SNAPSHOT_VERSION,
+                        params,
+                        state: LearnerState {
+                            iterate,
+                            average,
+                            accumulator: [0.0; 6],
+                            steps,
+                        },
+                    }
+                )),
+            params().prop_map(Message::Configure),
+            Just(Message::Reset),
+            (0usize..7, proptest::option::of(any::<u32>())).prop_map(|(c, tick)| {
+                let codes = [
+                    ErrorCode::Decode,
+                    ErrorCode::Version,
+                    ErrorCode::Reassembly,
+                    ErrorCode::WrongStream,
+                    ErrorCode::Observation,
+                    ErrorCode::Params,
+                    ErrorCode::Internal,
+                ];
+                Message::Error(ErrorReport {
+                    code: codes[c],
+                    tick,
+                })
+            }),
+        ]
+    }
+
+    /// Polarity is re-exported here so the tests below can name it.
+    pub(crate) type Pol = Polarity;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::strategies::{Pol, message};
+    use super::*;
+    use crate::envelope::CRC16;
+    use firmware_core::feature::Feature;
+    use firmware_core::observation::{PathReference, SemanticClass, SemanticObject};
+    use firmware_core::{
+        ActionFeedback, LearnerKind, LearnerState, PreferenceFeedback, SemanticFeedback,
+    };
+    use proptest::prelude::*;
+
+    fn a(i: usize) -> ActionIndex {
+        ActionIndex::new(i).unwrap()
+    }
+
+    const ID: DeliveryId = DeliveryId {
+        session: 7,
+        seq: 200,
+    };
+
+    /// Seals `value`, checks that the payload is exactly `payload` and the envelope is
+    /// `[1, payload.., crc_lo, crc_hi]`, and that it parses back to `value`.
+    #[track_caller]
+    fn test_one(value: Message, payload: &[u8]) {
+        let mut buf = [0u8; MAX_MESSAGE_SIZE];
+        let bytes = value.emit(&mut buf).unwrap();
+        let mut expected = std::vec![PROTOCOL_VERSION_BYTE];
+        expected.extend_from_slice(payload);
+        let crc = CRC16.checksum(&expected).to_le_bytes();
+        expected.extend_from_slice(&crc);
+        assert_eq!(bytes, &expected[..], "{value:?}");
+        assert_eq!(
+            payload[0],
+            value.kind() as u8,
+            "variant number of {value:?}"
+        );
+        assert!(bytes.len() <= value.kind().max_encoded_size());
+        assert_eq!(Message::parse(bytes), Ok(value));
+    }
+
+    const PROTOCOL_VERSION_BYTE: u8 = 1;
+
+    fn f(x: f32) -> [u8; 4] {
+        x.to_le_bytes()
+    }
+
+    #[test]
+    fn golden_observation() {
+        let mut obs = Observation::open_space();
+        obs.scan.ranges[0] = 0.5;
+        obs.objects
+            .push(SemanticObject {
+                class: SemanticClass::Stairs,
+                x: 2.0,
+                y: -1.0,
+                radius: 0.25,
+            })
+            .unwrap();
+        obs.reference = PathReference {
+            x: 1.0,
+            y: 0.0,
+            heading: 0.0,
+        };
+        obs.speed = 1.0;
+        let mut payload = std::vec![0u8, 0xAC, 0x02]; // variant 0, tick 300 (varint)
+        payload.extend_from_slice(&[0x00, 0x00, 0x00, 0x3F]); // beam 0: 0.5
+        for _ in 1..64 {
+            payload.extend_from_slice(&[0x00, 0x00, 0x20, 0x41]); // 10.0
+        }
+        payload.extend_from_slice(&[
+            1, // one object
+            1, // Stairs
+            0x00, 0x00, 0x00, 0x40, // x 2.0
+            0x00, 0x00, 0x80, 0xBF, // y -1.0
+            0x00, 0x00, 0x80, 0x3E, // radius 0.25
+            0x00, 0x00, 0x80, 0x3F, // reference x 1.0
+            0, 0, 0, 0, // reference y
+            0, 0, 0, 0, // heading
+            0x00, 0x00, 0x80, 0x3F, // speed 1.0
+        ]);
+        test_one(
+            Message::Observation(ObservationMessage {
+                tick: 300,
+                observation: obs,
+            }),
+            &payload,
+        );
+    }
+
+    #[test]
+    fn golden_action_and_stop() {
+        #[rustfmt::skip]
+        let straight = [
+            1, 0xAC, 0x02, // variant 1, tick 300
+            1, 0,          // Some(track), action 0
+            0, 0, 0, 0,  0x00, 0x00, 0x00, 0x3F, // segment 1: steering 0, length 0.5
+            0, 0, 0, 0,  0x00, 0x00, 0x00, 0x3F, // segment 2: steering 0, length 0.5
+            0x00, 0x00, 0x80, 0x3F,             // speed 1.0
+        ];
+        test_one(
+            Message::Action(ActionCommand::new(300, Some(a(0)))),
+            &straight,
+        );
+        test_one(Message::Action(ActionCommand::stop(7)), &[1, 7, 0]);
+        // A curved one: the lattice's numbers, written as they are.
+        let t = Track::of(a(1));
+        let mut payload = std::vec![1, 9, 1, 1];
+        for s in t.segments {
+            payload.extend_from_slice(&f(s.steering));
+            payload.extend_from_slice(&f(s.length));
+        }
+        payload.extend_from_slice(&f(t.speed));
+        assert!(
+            t.segments[1].steering > 0.1,
+            "action 1 turns left in its second half"
+        );
+        test_one(Message::Action(ActionCommand::new(9, Some(a(1)))), &payload);
+    }
+
+    #[test]
+    fn golden_feedback_of_every_kind() {
+        let fb = |feedback| {
+            Message::Feedback(FeedbackMessage {
+                id: ID,
+                tick: 1,
+                feedback,
+            })
+        };
+        // variant 2, session 7, seq 200, tick 1, then the Feedback enum.
+        test_one(
+            fb(Feedback::Action(ActionFeedback { action: a(17) })),
+            &[2, 7, 200, 1, 0, 17],
+        );
+        test_one(
+            fb(Feedback::Preference(PreferenceFeedback {
+                preferred: a(3),
+                other: a(63),
+            })),
+            &[2, 7, 200, 1, 1, 3, 63],
+        );
+        let said = SemanticFeedback::new()
+            .avoid(Feature::Door)
+            .prefer(Feature::Path);
+        assert_eq!(said.get(Feature::Path), Some(Pol::Prefer));
+        // Six Option<Polarity>, in feature order: None, Some(Avoid), None, None, Some(Prefer), None.
+        test_one(
+            fb(Feedback::Semantic(said)),
+            &[2, 7, 200, 1, 2, 0, 1, 0, 0, 0, 1, 1, 0],
+        );
+    }
+
+    #[test]
+    fn golden_ack_nack_heartbeat_reset_error() {
+        test_one(Message::Ack(Ack { id: ID }), &[3, 7, 200]);
+        let nack = |code| Message::Nack(Nack { id: ID, code });
+        test_one(nack(NackCode::UnknownTick), &[4, 7, 200, 0]);
+        test_one(nack(NackCode::Rejected), &[4, 7, 200, 1]);
+        test_one(nack(NackCode::Stale), &[4, 7, 200, 2]);
+        // 0x1234 as a varint: 0xB4 0x24.
+        test_one(
+            Message::Heartbeat(Heartbeat { counter: 0x1234 }),
+            &[5, 0xB4, 0x24],
+        );
+        test_one(Message::Reset, &[8]);
+        test_one(
+            Message::Error(ErrorReport {
+                code: ErrorCode::Observation,
+                tick: Some(9),
+            }),
+            &[9, 4, 1, 9],
+        );
+        test_one(
+            Message::Error(ErrorReport {
+                code: ErrorCode::Decode,
+                tick: None,
+            }),
+            &[9, 0, 0],
+        );
+        let codes = [
+            ErrorCode::Decode,
+            ErrorCode::Version,
+            ErrorCode::Reassembly,
+            ErrorCode::WrongStream,
+            ErrorCode::Observation,
+            ErrorCode::Params,
+            ErrorCode::Internal,
+        ];
+        for (i, code) in codes.into_iter().enumerate() {
+            let m = Message::Error(ErrorReport { code, tick: None });
+            test_one(m, &[9, i as u8, 0]);
+        }
+    }
+
+    #[test]
+    fn golden_weights_and_configure() {
+        let params = LearnerParams::paper();
+        let snap = LearnerSnapshot {
+            version: 1,
+            params,
+            state: LearnerState {
+                iterate: [0.0; 6],
+                average: [0.0; 6],
+                accumulator: [0.0; 6],
+                steps: 3,
+            },
+        };
+        let mut payload = std::vec![6, 1, 0]; // variant 6, version 1, kind Ogd
+        payload.extend_from_slice(&[0x0A, 0xD7, 0x23, 0x3C]); // step 0.01
+        payload.push(0); // no radius
+        payload.extend_from_slice(&[0; 24]); // initial weights
+        payload.extend_from_slice(&[0; 72]); // iterate, average, accumulator
+        payload.push(3); // steps
+        test_one(Message::Weights(snap), &payload);
+
+        let mut cfg = LearnerParams::new(LearnerKind::AdaGrad).with_radius(2.0);
+        cfg.initial[5] = -1.0;
+        let mut payload = std::vec![7, 3]; // variant 7, kind AdaGrad
+        payload.extend_from_slice(&[0xCD, 0xCC, 0xCC, 0x3D]); // step 0.1
+        payload.extend_from_slice(&[1, 0x00, 0x00, 0x00, 0x40]); // Some(2.0)
+        payload.extend_from_slice(&[0; 20]);
+        payload.extend_from_slice(&[0x00, 0x00, 0x80, 0xBF]); // initial[5] = -1.0
+        test_one(Message::Configure(cfg), &payload);
+    }
+
+    #[test]
+    fn maximum_sizes_are_reached_by_the_worst_case_values() {
+        let mut obs = Observation::open_space();
+        while obs
+            .objects
+            .push(SemanticObject {
+                class: SemanticClass::Chair,
+                x: 1.0,
+                y: 1.0,
+                radius: 0.3,
+            })
+            .is_ok()
+        {}
+        let every = SemanticFeedback::new()
+            .avoid(Feature::Obstacles)
+            .avoid(Feature::Door)
+            .avoid(Feature::Stairs)
+            .avoid(Feature::Chair)
+            .prefer(Feature::Path)
+            .prefer(Feature::Right);
+        let params = LearnerParams::paper().with_radius(1.0);
+        let worst = [
+            (
+                Message::Observation(ObservationMessage {
+                    tick: u32::MAX,
+                    observation: obs,
+                }),
+                386,
+            ),
+            (
+                Message::Action(ActionCommand::new(u32::MAX, Some(a(63)))),
+                31,
+            ),
+            (
+                Message::Feedback(FeedbackMessage {
+                    id: ID,
+                    tick: u32::MAX,
+                    feedback: Feedback::Semantic(every),
+                }),
+                24,
+            ),
+            (Message::Ack(Ack { id: ID }), 6),
+            (
+                Message::Nack(Nack {
+                    id: ID,
+                    code: NackCode::Stale,
+                }),
+                7,
+            ),
+            (Message::Heartbeat(Heartbeat { counter: u16::MAX }), 7),
+            (
+                Message::Weights(LearnerSnapshot {
+                    version: u16::MAX,
+                    params,
+                    state: LearnerState {
+                        iterate: [1.0; 6],
+                        average: [1.0; 6],
+                        accumulator: [1.0; 6],
+                        steps: u32::MAX,
+                    },
+                }),
+                118,
+            ),
+            (Message::Configure(params), 38),
+            (Message::Reset, 4),
+            (
+                Message::Error(ErrorReport {
+                    code: ErrorCode::Internal,
+                    tick: Some(u32::MAX),
+                }),
+                11,
+            ),
+        ];
+        let mut buf = [0u8; MAX_MESSAGE_SIZE];
+        for (i, (msg, size)) in worst.into_iter().enumerate() {
+            let kind = msg.kind();
+            assert_eq!(
+                kind,
+                MessageKind::ALL[i],
+                "the table follows the variant order"
+            );
+            assert_eq!(kind.max_encoded_size(), size, "{kind}");
+            assert_eq!(
+                msg.emit(&mut buf).unwrap().len(),
+                size,
+                "{kind} reaches its bound"
+            );
+        }
+        assert_eq!(MAX_MESSAGE_SIZE, 386);
+    }
+
+    #[test]
+    fn every_lattice_action_makes_a_valid_command() {
+        for action in ActionIndex::all() {
+            let track = Track::of(action);
+            assert_eq!(track.check(), Ok(()), "{action}");
+            let t = lattice::trajectory(action);
+            assert_eq!(track.segments[1].steering, t.segments[1].steering);
+            assert_eq!(track.speed, t.speed);
+        }
+    }
+
+    #[test]
+    fn out_of_range_tracks_are_refused() {
+        let bad = |edit: fn(&mut Track)| {
+            let mut t = Track::of(a(0));
+            edit(&mut t);
+            let msg = Message::Action(ActionCommand {
+                tick: 1,
+                track: Some(t),
+            });
+            let mut buf = [0u8; MAX_MESSAGE_SIZE];
+            Message::parse(msg.emit(&mut buf).unwrap())
+        };
+        assert!(bad(|_| {}).is_ok());
+        assert!(bad(|t| t.segments[0].steering = MAX_STEERING).is_ok());
+        let refused: [fn(&mut Track); 7] = [
+            |t| t.segments[0].steering = f32::NAN,
+            |t| t.segments[1].steering = -0.35,
+            |t| t.segments[0].length = -0.1,
+            |t| t.segments[1].length = f32::INFINITY,
+            |t| t.speed = 0.0,
+            |t| t.speed = MAX_SPEED * 1.01,
+            |t| t.speed = f32::NAN,
+        ];
+        for edit in refused {
+            assert_eq!(bad(edit), Err(DecodeError::InvalidTrack));
+        }
+    }
+
+    #[test]
+    fn envelope_faults_are_decode_errors() {
+        let mut buf = [0u8; MAX_MESSAGE_SIZE];
+        let good = Message::Reset.emit(&mut buf).unwrap().to_vec();
+        assert_eq!(
+            Message::parse(&good[..2]),
+            Err(DecodeError::Envelope(EnvelopeError::Truncated))
+        );
+        let mut crc_bad = good.clone();
+        crc_bad[1] = 3;
+        assert_eq!(
+            Message::parse(&crc_bad),
+            Err(DecodeError::Envelope(EnvelopeError::Crc))
+        );
+        // Re-seal by hand with version 2, then with a trailing byte, then an unknown variant.
+        let reseal = |body: &[u8]| {
+            let mut v = body.to_vec();
+            let crc = CRC16.checksum(body).to_le_bytes();
+            v.extend_from_slice(&crc);
+            v
+        };
+        let e = Message::parse(&reseal(&[2, 8])).unwrap_err();
+        assert_eq!(e, DecodeError::Envelope(EnvelopeError::Version(2)));
+        assert_eq!(e.code(), ErrorCode::Version);
+        assert_eq!(
+            Message::parse(&reseal(&[1, 8, 0])),
+            Err(DecodeError::Envelope(EnvelopeError::TrailingBytes))
+        );
+        assert_eq!(
+            Message::parse(&reseal(&[1, 10])),
+            Err(DecodeError::Envelope(EnvelopeError::Decode))
+        );
+        // An action index of 64 is not an action.
+        assert_eq!(
+            Message::parse(&reseal(&[1, 2, 7, 200, 1, 0, 64])),
+            Err(DecodeError::Envelope(EnvelopeError::Decode))
+        );
+        assert_eq!(
+            Message::parse(&reseal(&[1, 2, 7, 200, 1, 0, 63])).map(|m| m.kind()),
+            Ok(MessageKind::Feedback)
+        );
+    }
+
+    #[test]
+    fn nack_codes_follow_the_agent_s_errors() {
+        use firmware_core::LearnError;
+        assert_eq!(
+            NackCode::from(&FeedbackError::UnknownTick(3)),
+            NackCode::UnknownTick
+        );
+        assert_eq!(
+            NackCode::from(&FeedbackError::Learn(LearnError::DegenerateFeedback)),
+            NackCode::Rejected
+        );
+    }
+
+    proptest! {
+        #[test]
+        fn messages_round_trip(msg in message()) {
+            let mut buf = [0u8; MAX_MESSAGE_SIZE];
+            let bytes = msg.emit(&mut buf).unwrap();
+            prop_assert!(bytes.len() <= msg.kind().max_encoded_size());
+            prop_assert_eq!(bytes[1], msg.kind() as u8);
+            prop_assert_eq!(Message::parse(bytes), Ok(msg));
+        }
+
+        #[test]
+        fn any_bytes_give_a_message_or_an_error(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
+            let _ = Message::parse(&bytes);
+        }
+
+        #[test]
+        fn resealed_random_payloads_give_a_message_or_an_error(
+            payload in proptest::collection::vec(any::<u8>(), 0..400),
+            tag in 0u8..12,
+        ) {
+            // Past the CRC, so postcard's decoder and the track check see arbitrary bytes.
+            let mut body = std::vec![PROTOCOL_VERSION_BYTE, tag];
+            body.extend_from_slice(&payload);
+            let crc = CRC16.checksum(&body).to_le_bytes();
+            body.extend_from_slice(&crc);
+            if let Ok(msg) = Message::parse(&body) {
+                prop_assert_eq!(msg.kind() as u8, tag);
+            }
+        }
+
+        #[test]
+        fn any_corruption_of_a_message_is_caught(msg in message(), at in any::<usize>(), bit in 0u8..8) {
+            let mut buf = [0u8; MAX_MESSAGE_SIZE];
+            let mut bytes = msg.emit(&mut buf).unwrap().to_vec();
+            let i = at % bytes.len();
+            bytes[i] ^= 1 << bit;
+            prop_assert!(Message::parse(&bytes).is_err());
+        }
+    }
+}
