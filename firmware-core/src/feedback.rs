@@ -114,6 +114,7 @@ impl<'a> Round<'a> {
 #[derive(Clone, PartialEq, Debug)]
 pub struct PseudoLoss {
     values: [f32; MAX_ACTIONS],
+    absolute: bool,
 }
 
 impl PseudoLoss {
@@ -140,7 +141,23 @@ impl PseudoLoss {
             let allowed_here = ActionIndex::new(i).is_some_and(|a| allowed.contains(a));
             *v = if allowed_here { *v - min } else { 0.0 };
         }
-        Ok(Self { values })
+        Ok(Self {
+            values,
+            absolute: false,
+        })
+    }
+
+    /// Marks the pseudo-loss as *absolute* (see [`PseudoLossSource::is_absolute`]).
+    pub fn with_absolute(mut self, absolute: bool) -> Self {
+        self.absolute = absolute;
+        self
+    }
+
+    /// Whether the pseudo-loss ranks its target above every action on its own, rather than only
+    /// relative to the actions its feedback judged (see [`PseudoLossSource::is_absolute`]).
+    #[inline]
+    pub fn is_absolute(&self) -> bool {
+        self.absolute
     }
 
     /// All entries, indexed by action.
@@ -169,6 +186,16 @@ pub trait PseudoLossSource {
         round: &Round<'_>,
         out: &mut [f32; MAX_ACTIONS],
     ) -> Result<(), LearnError>;
+
+    /// Whether the feedback names the action the teacher holds best, so that its pseudo-loss
+    /// ranks that action above *every* other on its own. True for [`ActionFeedback`]. False (the
+    /// default) for feedback that judges actions only relative to the ones it compares: a
+    /// preference between two actions, statements about how the learner's choice could be
+    /// better. A learner may apply absolute feedback to any of its iterates, relative feedback
+    /// only to the weights that chose the judged action (see [`crate::AveragedOgd`]).
+    fn is_absolute(&self) -> bool {
+        false
+    }
 }
 
 /// The shifted pseudo-loss of `source` for `round`.
@@ -178,7 +205,7 @@ pub fn pseudo_loss<S: PseudoLossSource + ?Sized>(
 ) -> Result<PseudoLoss, LearnError> {
     let mut raw = [0.0f32; MAX_ACTIONS];
     source.write_pseudo_loss(round, &mut raw)?;
-    PseudoLoss::from_raw(raw, round.allowed())
+    Ok(PseudoLoss::from_raw(raw, round.allowed())?.with_absolute(source.is_absolute()))
 }
 
 /// The teacher names the action it wanted.
@@ -207,6 +234,10 @@ impl PseudoLossSource for ActionFeedback {
             };
         }
         Ok(())
+    }
+
+    fn is_absolute(&self) -> bool {
+        true
     }
 }
 
@@ -409,6 +440,14 @@ impl PseudoLossSource for Feedback {
             Feedback::Action(f) => f.write_pseudo_loss(round, out),
             Feedback::Preference(f) => f.write_pseudo_loss(round, out),
             Feedback::Semantic(f) => f.write_pseudo_loss(round, out),
+        }
+    }
+
+    fn is_absolute(&self) -> bool {
+        match self {
+            Feedback::Action(f) => f.is_absolute(),
+            Feedback::Preference(f) => f.is_absolute(),
+            Feedback::Semantic(f) => f.is_absolute(),
         }
     }
 }

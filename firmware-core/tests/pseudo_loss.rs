@@ -288,3 +288,41 @@ fn a_refused_call_changes_nothing() {
     );
     assert_eq!(l, before);
 }
+
+#[test]
+fn averaged_ogd_takes_absolute_feedback_at_its_iterate_and_relative_feedback_at_its_average() {
+    use firmware_core::{AveragedOgd, LearnerParams, ValidLearnerParams};
+    let (t, m) = scene();
+    let params: ValidLearnerParams = LearnerParams::default().check().unwrap();
+    let mut l = AveragedOgd::new(&params);
+    // Two action corrections make the raw iterate and the average differ.
+    let round = Round::new(&t, m, a(0)).unwrap();
+    learn(&mut l, &round, &ActionFeedback { action: a(2) }).unwrap();
+    learn(&mut l, &round, &ActionFeedback { action: a(1) }).unwrap();
+    assert_ne!(l.iterate(), l.weights());
+    let chosen = l.select(&t, m).unwrap();
+    let round = Round::new(&t, m, chosen).unwrap();
+
+    let absolute = ActionFeedback { action: a(0) };
+    let delta = pseudo_loss(&absolute, &round).unwrap();
+    assert!(delta.is_absolute());
+    let at_iterate = surrogate::generalized_hinge(l.iterate(), &round, &delta);
+    assert_eq!(
+        learn(&mut l.clone(), &round, &absolute).unwrap().eval,
+        at_iterate
+    );
+
+    let relative = SemanticFeedback::new().avoid(Feature::Door);
+    let delta = pseudo_loss(&relative, &round).unwrap();
+    assert!(!delta.is_absolute());
+    let at_average = surrogate::generalized_hinge(l.weights(), &round, &delta);
+    assert_eq!(
+        learn(&mut l.clone(), &round, &relative).unwrap().eval,
+        at_average
+    );
+    let preference = PreferenceFeedback {
+        preferred: a(1),
+        other: chosen,
+    };
+    assert!(!pseudo_loss(&preference, &round).unwrap().is_absolute());
+}

@@ -121,8 +121,10 @@ impl RefLearner {
         for &a in allowed {
             delta[a] -= min;
         }
-        // The point where the subgradient is taken.
-        let at: Vec<f32> = if self.kind == LearnerKind::AveragedOgd {
+        // The point where the subgradient is taken: averaged OGD takes absolute (action) feedback
+        // at its raw iterate, relative feedback at its average (the acting weights).
+        let absolute = matches!(fb, RefFeedback::Action(_));
+        let at: Vec<f32> = if self.kind == LearnerKind::AveragedOgd && absolute {
             self.w.clone()
         } else {
             self.acting().to_vec()

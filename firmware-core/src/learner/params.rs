@@ -165,10 +165,12 @@ impl Default for LearnerParams {
     ///
     /// Why this default: a real teacher is noisy. On the seeded synthetic stream of the test
     /// suite (64 actions, 20% of the teacher's answers replaced by random actions), plain OGD's
-    /// last iterate keeps being knocked about by every wrong answer, while the averaged iterate
-    /// (the mean of all iterates, Polyak–Ruppert) moves by `1/t` of each step and settles near
-    /// the teacher's policy. On a clean teacher it learns as fast as OGD. The figures are in
-    /// `firmware-core/tests/learning.rs` and the crate documentation.
+    /// iterate keeps being knocked about by every wrong answer, while the averaged iterate (the
+    /// mean of all iterates, Polyak–Ruppert) moves by `1/t` of each step and settles near the
+    /// teacher's policy; in the simulated households it is also the better learner from noisy
+    /// action feedback, and it learns from preferences and spoken rules as well (see
+    /// [`AveragedOgd`](crate::AveragedOgd) for how it treats each kind of feedback). The figures
+    /// are in `firmware-core/tests/learning.rs` and `host-sim`'s `experiment` module.
     fn default() -> Self {
         Self::new(LearnerKind::AveragedOgd)
     }
