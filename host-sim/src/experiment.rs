@@ -14,7 +14,8 @@
 //! The learner sits behind [`CarLink`], so the same loop runs the in-process agent
 //! ([`InProcessLink`]) or one in another process over a CAN link; both must give bit-identical
 //! records. Nothing here reads a clock: the only randomness is the teacher's, seeded from the
-//! run's seed, so the same configuration gives the same CSV bytes.
+//! run's seed, and, when the configuration asks for it ([`StartJitter`], as `host-sim reproduce`
+//! does), a start pose drawn from the same seed; the same configuration gives the same CSV bytes.
 //!
 //! # Modes
 //!
@@ -72,6 +73,7 @@ use firmware_core::{
     LearnerSnapshot, OnlineLearner, Round, Weights,
 };
 
+use crate::car::Pose;
 use crate::scenario::Scenario;
 use crate::sim::{Episode, ResetReason};
 use crate::teacher::{FeedbackKind, Teacher, TeacherSpec};
@@ -197,6 +199,62 @@ pub struct RunConfig {
     pub noise: Option<f32>,
     /// The learner's parameters.
     pub learner: LearnerParams,
+    /// A seeded random offset of the start pose (None: the scenario's start, as `host-sim run`).
+    pub start_jitter: Option<StartJitter>,
+}
+
+/// A small random offset of the start pose, drawn once per run from the run's seed, so that
+/// trials of the same setting differ even with a noiseless teacher (with σ = 0 and action
+/// feedback nothing else in a run is random). Every reset of the run returns to the same
+/// jittered pose.
+///
+/// The offset is `u·lateral` metres across the start's heading (left positive) and `v·heading`
+/// radians of heading, `u, v` uniform in [−1, 1] drawn in that order from a ChaCha8 generator
+/// seeded with `seed ^ JITTER_SALT` (independent of the teacher's generator). If the car's
+/// footprint at the offset pose would touch the map, the offset is halved, up to four times, and
+/// then dropped (the scenario's start, which loading checked, is used).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StartJitter {
+    /// Largest lateral offset (m).
+    pub lateral: f64,
+    /// Largest heading offset (rad).
+    pub heading: f64,
+}
+
+impl StartJitter {
+    /// The reproduction's jitter: up to 0.15 m sideways and 0.1 rad (5.7°) of heading, small
+    /// against the 1.6–2 m hallways and the 1 m trajectories.
+    pub const REPRODUCE: StartJitter = StartJitter {
+        lateral: 0.15,
+        heading: 0.1,
+    };
+
+    /// Salt of the jitter's generator seed.
+    pub const JITTER_SALT: u64 = 0x5EED_0F57_A27C_0DE5;
+
+    /// The start pose of a run of `scenario` with `seed`.
+    pub fn start(&self, scenario: &Scenario, seed: u64) -> Pose {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ Self::JITTER_SALT);
+        let u: f64 = rng.random_range(-1.0..=1.0);
+        let v: f64 = rng.random_range(-1.0..=1.0);
+        let st = scenario.start;
+        let car = crate::car::CarParams::MUSHR;
+        let mut scale = 1.0;
+        for _ in 0..5 {
+            let d = u * self.lateral * scale;
+            let pose = Pose {
+                x: st.x - d * libm::sin(st.theta),
+                y: st.y + d * libm::cos(st.theta),
+                theta: st.theta + v * self.heading * scale,
+            };
+            if !car.footprint_hits(&scenario.map, pose) {
+                return pose;
+            }
+            scale /= 2.0;
+        }
+        st
+    }
 }
 
 impl RunConfig {
@@ -211,6 +269,15 @@ impl RunConfig {
             threshold: None,
             noise: None,
             learner: LearnerParams::default(),
+            start_jitter: None,
+        }
+    }
+
+    /// Where the run's car starts: the scenario's start, or jittered by the seed.
+    pub fn start_pose(&self) -> Pose {
+        match self.start_jitter {
+            Some(j) => j.start(&self.scenario, self.seed),
+            None => self.scenario.start,
         }
     }
 
@@ -244,6 +311,12 @@ impl RunConfig {
             "noise must be finite and >= 0, got {}",
             t.noise
         );
+        if let Some(j) = self.start_jitter {
+            ensure!(
+                j.lateral.is_finite() && j.lateral >= 0.0 && j.heading.is_finite() && j.heading >= 0.0,
+                "start jitter must be finite and >= 0, got {j:?}"
+            );
+        }
         self.learner
             .check()
             .map_err(|e| anyhow::anyhow!("learner parameters: {e}"))?;
@@ -444,7 +517,7 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 /// The learner with `weights` as its initial (and, frozen, final) weights.
-fn learner_with(params: LearnerParams, weights: Weights) -> Result<LearnerSnapshot> {
+pub fn learner_with(params: LearnerParams, weights: Weights) -> Result<LearnerSnapshot> {
     let p = params
         .with_initial(weights)
         .check()
@@ -456,7 +529,7 @@ fn learner_with(params: LearnerParams, weights: Weights) -> Result<LearnerSnapsh
 pub fn behaviour_cloning(config: &RunConfig) -> Result<(LearnerSnapshot, BcFit)> {
     let spec = config.teacher();
     let mut teacher = Teacher::new(spec, config.seed ^ 0xB0C0_B0C0_B0C0_B0C0);
-    let mut episode = Episode::new(config.scenario.clone());
+    let mut episode = Episode::starting_at(config.scenario.clone(), config.start_pose());
     let mut rollout: Vec<(FeatureTable, ActionMask, ActionIndex)> = Vec::new();
     let mut ticks = 0;
     while ticks < BC_ROLLOUT_TICKS && episode.laps() == 0 {
@@ -530,7 +603,7 @@ pub fn run_with(
     };
     link.restore(&initial)?;
     let mut teacher = Teacher::new(spec, config.seed);
-    let mut episode = Episode::new(config.scenario.clone());
+    let mut episode = Episode::starting_at(config.scenario.clone(), config.start_pose());
     let mut records = Vec::with_capacity(config.steps as usize);
     let mut corrections = 0u32;
     let mut resets = [0u32; 4];

@@ -111,6 +111,8 @@ pub struct TickResult {
 #[derive(Clone, Debug)]
 pub struct Episode {
     scenario: Arc<Scenario>,
+    /// Where this episode starts and every reset returns (the scenario's start unless jittered).
+    start: Pose,
     params: CarParams,
     car: CarState,
     /// Arc length of the car's projection onto the path.
@@ -126,8 +128,16 @@ pub struct Episode {
 impl Episode {
     /// The car at the scenario's start.
     pub fn new(scenario: Arc<Scenario>) -> Self {
+        let start = scenario.start;
+        Self::starting_at(scenario, start)
+    }
+
+    /// The car at `start` instead of the scenario's start; every reset returns there. The caller
+    /// checks that the pose is free (see [`crate::experiment::StartJitter`]).
+    pub fn starting_at(scenario: Arc<Scenario>, start: Pose) -> Self {
         let mut e = Self {
-            car: CarState::at(scenario.start),
+            car: CarState::at(start),
+            start,
             scenario,
             params: CarParams::MUSHR,
             s: 0.0,
@@ -143,13 +153,18 @@ impl Episode {
 
     /// Back to the start (laps are kept).
     pub fn reset(&mut self) {
-        self.car = CarState::at(self.scenario.start);
-        let st = self.scenario.start;
+        self.car = CarState::at(self.start);
+        let st = self.start;
         self.s = self.scenario.path.project((st.x, st.y)).0;
         self.progress = 0.0;
         self.best = 0.0;
         self.since_progress = 0;
         self.episode_laps = 0;
+    }
+
+    /// Where the episode starts.
+    pub fn start(&self) -> Pose {
+        self.start
     }
 
     /// The car's state.
