@@ -313,7 +313,10 @@ impl RunConfig {
         );
         if let Some(j) = self.start_jitter {
             ensure!(
-                j.lateral.is_finite() && j.lateral >= 0.0 && j.heading.is_finite() && j.heading >= 0.0,
+                j.lateral.is_finite()
+                    && j.lateral >= 0.0
+                    && j.heading.is_finite()
+                    && j.heading >= 0.0,
                 "start jitter must be finite and >= 0, got {j:?}"
             );
         }

@@ -25,6 +25,9 @@
 //! * [`registry`]: built-in scenarios and experiments by name; parallel runs.
 //! * [`households`]: the generator of the built-in household maps.
 //! * [`plot`]: drawings: the lattice (SVG), a scenario and a run's poses (PNG).
+//! * [`figure`]: the reproduction's charts (mean ± std bands) and map panels, as PNG and SVG.
+//! * [`reproduce`]: `host-sim reproduce` and `host-sim merge`: the paper's section 6 end to end,
+//!   sharded or not, with CSVs, figures and a report that checks the paper's claims.
 //! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
 //!
 //! Every random choice takes a seed and no clock is read: the same configuration gives
@@ -35,11 +38,13 @@
 
 pub mod car;
 pub mod experiment;
+pub mod figure;
 pub mod households;
 pub mod map;
 pub mod path;
 pub mod plot;
 pub mod registry;
+pub mod reproduce;
 pub mod scenario;
 pub mod sim;
 pub mod synthetic;

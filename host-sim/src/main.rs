@@ -63,6 +63,26 @@ enum Command {
         #[arg(long, default_value = "scenario.png")]
         out: PathBuf,
     },
+    /// Reproduce the paper's section 6: the variety, noise (and sigma sweep) and threshold
+    /// experiments and the path figures, trials in parallel.
+    ///
+    /// Writes into DIR: variety.csv, noise.csv, thresholds.csv (per step: mean and standard
+    /// deviation across trials of the latent loss and the cumulative corrections),
+    /// noise_sweep.csv, summary.csv, paths.csv, figures/*.png and *.svg, and REPORT.md, which
+    /// checks the paper's claims with these numbers. The learner is the paper's: plain OGD, step
+    /// 0.01. With --shard i/n it runs only slice i of n of the trial grid and writes its raw
+    /// results for `host-sim merge`.
+    Reproduce(ReproduceArgs),
+    /// Merge the folders of `host-sim reproduce --shard i/n` runs into the outputs of one run
+    /// (byte-identical to running the whole grid on one machine).
+    Merge {
+        /// The shard folders (every shard of one grid, each once).
+        #[arg(required = true)]
+        dirs: Vec<PathBuf>,
+        /// Output folder.
+        #[arg(long, default_value = "out/reproduce")]
+        out: PathBuf,
+    },
     /// Measure simulated steps per second of one run on one core.
     Bench {
         /// Scenario name or file.
@@ -109,6 +129,29 @@ struct RunArgs {
     /// Output folder (created if missing).
     #[arg(long, default_value = "out")]
     out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+struct ReproduceArgs {
+    /// Trials per setting (trial t has seed SEED + t).
+    #[arg(long, default_value_t = 10)]
+    trials: u32,
+    /// Control ticks per trial.
+    #[arg(long, default_value_t = 5_000)]
+    steps: u32,
+    /// Seed of trial 0.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (default: one per core). The outputs do not depend on it.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// Output folder (created if missing).
+    #[arg(long, default_value = "out/reproduce")]
+    out: PathBuf,
+    /// Run only slice INDEX of COUNT of the trial grid (INDEX from 0, e.g. a SLURM array task id
+    /// or a Kubernetes JOB_COMPLETION_INDEX) and write its raw results for `host-sim merge`.
+    #[arg(long, value_name = "INDEX/COUNT")]
+    shard: Option<host_sim::reproduce::Shard>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -268,6 +311,100 @@ fn draw(scenario: &str, run: Option<&Path>, out: &Path) -> Result<()> {
     Ok(())
 }
 
+fn reproduce(args: &ReproduceArgs) -> Result<()> {
+    use host_sim::reproduce::{self, Options, Shard};
+    let o = Options {
+        trials: args.trials,
+        steps: args.steps,
+        seed: args.seed,
+    };
+    o.check()?;
+    if args.jobs == Some(0) {
+        bail!("--jobs must be positive");
+    }
+    let shard = args.shard.unwrap_or(Shard::WHOLE);
+    prepare_out(&args.out)?;
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = args.jobs {
+        pool = pool.num_threads(n);
+    }
+    let pool = pool.build().context("cannot start the worker threads")?;
+    let jobs = reproduce::jobs(&o, shard).len();
+    let bar = ProgressBar::with_draw_target(
+        Some(jobs as u64),
+        if std::io::stderr().is_terminal() {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        },
+    );
+    bar.set_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} trials ({eta} left) {msg}",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message(format!(
+        "{} trials x {} steps, {} threads",
+        o.trials,
+        o.steps,
+        pool.current_num_threads()
+    ));
+    let started = Instant::now();
+    let results = pool.install(|| reproduce::run_shard(&o, shard, &|| bar.inc(1)))?;
+    bar.finish_and_clear();
+    let ran = started.elapsed().as_secs_f64();
+    println!(
+        "ran {jobs} trials of {} steps on {} threads in {ran:.1} s",
+        o.steps,
+        pool.current_num_threads()
+    );
+    if shard.count > 1 {
+        reproduce::write_shard(&args.out, &o, shard, &results)?;
+        println!(
+            "wrote shard {}/{} into {}; combine every shard with `host-sim merge DIR... --out DIR`",
+            shard.index,
+            shard.count,
+            args.out.display()
+        );
+        return Ok(());
+    }
+    let report = reproduce::finalize(&args.out, &o, &results)?;
+    print_outcome(&args.out, &report);
+    println!(
+        "wall time {:.1} s ({ran:.1} s of trials)",
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn print_outcome(out: &Path, report: &str) {
+    for line in report
+        .lines()
+        .filter(|l| l.starts_with("| ") && l.ends_with("hold** |") || l.ends_with("holds** |"))
+    {
+        println!("{line}");
+    }
+    println!("report:  {}", out.join("REPORT.md").display());
+    println!("figures: {}", out.join("figures").display());
+}
+
+fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
+    let started = Instant::now();
+    let (o, results) = host_sim::reproduce::read_shards(dirs)?;
+    prepare_out(out)?;
+    let report = host_sim::reproduce::finalize(out, &o, &results)?;
+    println!(
+        "merged {} shard folders ({} trials x {} steps) in {:.1} s",
+        dirs.len(),
+        o.trials,
+        o.steps,
+        started.elapsed().as_secs_f64()
+    );
+    print_outcome(out, &report);
+    Ok(())
+}
+
 fn bench(scenario: &str, steps: u32) -> Result<()> {
     if steps == 0 {
         bail!("--steps must be positive");
@@ -380,6 +517,8 @@ fn main() -> ExitCode {
             println!("wrote {}", out.display());
         }),
         Command::Bench { scenario, steps } => bench(scenario, *steps),
+        Command::Reproduce(args) => reproduce(args),
+        Command::Merge { dirs, out } => merge(dirs, out),
         Command::Draw { scenario, run, out } => draw(scenario, run.as_deref(), out),
     };
     match result {

@@ -76,9 +76,15 @@ impl Raster {
     /// The map of `scenario` with its path, objects and start drawn, at most about 1000 pixels
     /// wide.
     pub fn of_scenario(scenario: &crate::scenario::Scenario) -> Self {
+        Self::of_scenario_within(scenario, 1000)
+    }
+
+    /// The same, at the largest whole number of pixels per cell (1 to 8) that keeps it at most
+    /// `max_width` pixels wide (at least one pixel per cell).
+    pub fn of_scenario_within(scenario: &crate::scenario::Scenario, max_width: usize) -> Self {
         use crate::map::Cell;
         let grid = scenario.map.clone();
-        let scale = (1000 / grid.width().max(1)).clamp(1, 8);
+        let scale = (max_width / grid.width().max(1)).clamp(1, 8);
         let (width, height) = (grid.width() * scale, grid.height() * scale);
         let mut r = Self {
             width,
@@ -182,6 +188,23 @@ impl Raster {
                 }
             }
         }
+    }
+
+    /// Draws a polyline through `points` (world frame), two pixels thick.
+    pub fn polyline(&mut self, points: &[(f64, f64)], c: [u8; 3]) {
+        for w in points.windows(2) {
+            self.line(w[0], w[1], c);
+        }
+    }
+
+    /// Width and height in pixels.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// The pixels, RGB, row-major from the top.
+    pub fn rgb(&self) -> &[u8] {
+        &self.rgb
     }
 
     /// Marks driven positions (world frame).
