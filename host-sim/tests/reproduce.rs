@@ -1,0 +1,245 @@
+//! `host-sim reproduce` and `host-sim merge`, at a tiny size (2 trials of 40 steps): every output
+//! exists and parses, the report checks every claim, and merged shards give the same bytes as
+//! one machine.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use host_sim::reproduce::CLAIMS;
+
+const TINY: [&str; 4] = ["--trials", "2", "--steps", "40"];
+
+fn host_sim(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "stdout: {}\nstderr: {}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn reproduce(out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec!["reproduce", "--out", out.to_str().unwrap()];
+    args.extend(TINY);
+    args.extend(extra);
+    host_sim(&args)
+}
+
+const CSVS: [&str; 6] = [
+    "variety.csv",
+    "noise.csv",
+    "noise_sweep.csv",
+    "thresholds.csv",
+    "summary.csv",
+    "paths.csv",
+];
+
+const FIGURES: [&str; 7] = [
+    "variety",
+    "noise",
+    "noise_sweep",
+    "thresholds",
+    "paths_teachers",
+    "paths_noise",
+    "paths_thresholds",
+];
+
+fn outputs() -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = CSVS.iter().map(PathBuf::from).collect();
+    v.push("REPORT.md".into());
+    for f in FIGURES {
+        v.push(Path::new("figures").join(format!("{f}.png")));
+        v.push(Path::new("figures").join(format!("{f}.svg")));
+    }
+    v
+}
+
+#[test]
+fn a_short_reproduction_writes_every_output_and_checks_every_claim() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("r");
+    let o = reproduce(&out, &["--jobs", "2"]);
+    ok(&o);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("REPORT.md") && stdout.contains("figures"),
+        "{stdout}"
+    );
+    for f in outputs() {
+        let p = out.join(&f);
+        let bytes = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        assert!(!bytes.is_empty(), "{} is empty", p.display());
+        match p.extension().and_then(|e| e.to_str()) {
+            Some("png") => assert!(bytes.starts_with(b"\x89PNG"), "{}", p.display()),
+            Some("svg") => assert!(bytes.starts_with(b"<svg"), "{}", p.display()),
+            _ => {}
+        }
+    }
+    // Every CSV: a header, rows of as many fields, numbers where the header promises numbers.
+    for name in CSVS {
+        let text = std::fs::read_to_string(out.join(name)).unwrap();
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let mut rows = 0;
+        for line in lines {
+            let fields: Vec<&str> = line.split(',').collect();
+            assert_eq!(fields.len(), header.len(), "{name}: {line}");
+            for (h, v) in header.iter().zip(&fields) {
+                let numeric = h.ends_with("_mean")
+                    || h.ends_with("_std")
+                    || ["step", "sigma", "threshold", "trials", "x", "y", "point"].contains(h);
+                if numeric {
+                    let x: f64 = v.parse().unwrap_or_else(|_| panic!("{name}: {h} = {v:?}"));
+                    assert!(x.is_finite(), "{name}: {h} = {v}");
+                }
+            }
+            rows += 1;
+        }
+        assert!(rows > 0, "{name} has no rows");
+    }
+    // Per-step CSVs: one row per step of every setting.
+    let variety = std::fs::read_to_string(out.join("variety.csv")).unwrap();
+    assert_eq!(variety.lines().count(), 1 + 12 * 40);
+    let sweep = std::fs::read_to_string(out.join("noise_sweep.csv")).unwrap();
+    assert_eq!(
+        sweep.lines().count(),
+        1 + host_sim::reproduce::NOISE_SWEEP.len()
+    );
+    // The report names every claim with a verdict, and embeds every PNG.
+    let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();
+    for (i, c) in CLAIMS.iter().enumerate() {
+        let row = report
+            .lines()
+            .find(|l| l.starts_with(&format!("| {} | {c} |", i + 1)))
+            .unwrap_or_else(|| panic!("claim {c:?} missing from the table"));
+        assert!(
+            row.ends_with("| **holds** |") || row.ends_with("| **does not hold** |"),
+            "{row}"
+        );
+        assert!(report.contains(&format!("### {}. {c}: **", i + 1)), "{c}");
+    }
+    for f in FIGURES {
+        assert!(report.contains(&format!("(figures/{f}.png)")), "{f}");
+    }
+    assert!(report.contains("plain online gradient descent"));
+}
+
+#[test]
+fn merged_shards_are_byte_identical_to_one_machine() {
+    let tmp = tempfile::tempdir().unwrap();
+    let whole = tmp.path().join("whole");
+    ok(&reproduce(&whole, &["--jobs", "1"]));
+    let mut shard_dirs = Vec::new();
+    for i in 0..3 {
+        let d = tmp.path().join(format!("shard{i}"));
+        ok(&reproduce(
+            &d,
+            &["--shard", &format!("{i}/3"), "--jobs", "2"],
+        ));
+        assert!(d.join("manifest.json").exists());
+        assert!(
+            !d.join("REPORT.md").exists(),
+            "a shard writes raw results only"
+        );
+        shard_dirs.push(d);
+    }
+    let merged = tmp.path().join("merged");
+    let mut args = vec!["merge"];
+    // Out of order on purpose.
+    for d in shard_dirs.iter().rev() {
+        args.push(d.to_str().unwrap());
+    }
+    args.extend(["--out", merged.to_str().unwrap()]);
+    ok(&host_sim(&args));
+    for f in outputs() {
+        let a = std::fs::read(whole.join(&f)).unwrap();
+        let b = std::fs::read(merged.join(&f)).unwrap();
+        assert!(
+            a == b,
+            "{} differs between one machine and merged shards",
+            f.display()
+        );
+    }
+
+    // A missing shard, a shard given twice and shards of different grids are refused.
+    let out = tmp.path().join("bad");
+    let s = |i: usize| shard_dirs[i].to_str().unwrap();
+    let o = host_sim(&["merge", s(0), s(1), "--out", out.to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("missing"));
+    let o = host_sim(&[
+        "merge",
+        s(0),
+        s(0),
+        s(1),
+        s(2),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("given twice"));
+    let other = tmp.path().join("other");
+    ok(&host_sim(&[
+        "reproduce",
+        "--trials",
+        "1",
+        "--steps",
+        "40",
+        "--shard",
+        "0/3",
+        "--out",
+        other.to_str().unwrap(),
+    ]));
+    let o = host_sim(&[
+        "merge",
+        other.to_str().unwrap(),
+        s(1),
+        s(2),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("different grid"));
+}
+
+#[test]
+fn bad_options_are_clear_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().to_str().unwrap();
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["reproduce", "--shard", "3/3", "--out", out],
+            "shard must be",
+        ),
+        (
+            &["reproduce", "--shard", "a/b", "--out", out],
+            "shard must be",
+        ),
+        (
+            &["reproduce", "--trials", "0", "--out", out],
+            "--trials must be",
+        ),
+        (
+            &["reproduce", "--steps", "5", "--out", out],
+            "--steps must be",
+        ),
+        (
+            &["reproduce", "--jobs", "0", "--out", out],
+            "--jobs must be",
+        ),
+        (&["merge", "/no/such/dir", "--out", out], "cannot read"),
+    ];
+    for (args, want) in cases {
+        let o = host_sim(args);
+        assert!(!o.status.success(), "{args:?} should fail");
+        let e = String::from_utf8_lossy(&o.stderr);
+        assert!(e.contains(want), "{args:?}: wanted {want:?} in {e}");
+    }
+}
