@@ -1,5 +1,6 @@
 //! Scenarios and experiments registered by name, in the manner of rapier's example registry:
-//! the CLI lists them, and a `reproduce` command can run them all in parallel.
+//! the CLI lists them, and [`run_all`] runs any list of runs in parallel. `host-sim reproduce`
+//! runs the paper's full grid, with the paper's learner, through [`crate::reproduce`].
 //!
 //! Built-in scenarios live in `host-sim/scenarios/` (located at build time through
 //! `CARGO_MANIFEST_DIR`). An experiment is a name and a function that expands options into run
