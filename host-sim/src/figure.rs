@@ -213,6 +213,8 @@ pub struct Panel {
     pub series: Vec<Series>,
     /// Draw mean ± std as a shaded band (else: error bars at every point).
     pub band: bool,
+    /// Put the legend in the upper left corner (for rising curves) instead of the upper right.
+    pub legend_left: bool,
 }
 
 /// A palette that reads on white (matplotlib's tab10).
@@ -318,7 +320,11 @@ fn draw_panel<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>, p: &Panel) -> R
     }
     chart
         .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
+        .position(if p.legend_left {
+            SeriesLabelPosition::UpperLeft
+        } else {
+            SeriesLabelPosition::UpperRight
+        })
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
         .label_font(("sans-serif", 13))
@@ -513,6 +519,7 @@ mod tests {
                     .collect(),
             }],
             band: true,
+            legend_left: false,
         };
         let stem = dir.path().join("fig");
         write_chart(&stem, "Title", &[panel], 1, (400, 300)).unwrap();

@@ -840,6 +840,7 @@ fn loss_panel(title: &str, rows: &[(String, &Aggregate)]) -> Panel {
         x_label: "step".into(),
         y_label: "latent loss".into(),
         band: true,
+        legend_left: false,
         series: rows
             .iter()
             .enumerate()
@@ -858,6 +859,7 @@ fn corrections_panel(title: &str, rows: &[(String, &Aggregate)]) -> Panel {
         x_label: "step".into(),
         y_label: "corrections".into(),
         band: true,
+        legend_left: true,
         series: rows
             .iter()
             .enumerate()
@@ -1054,13 +1056,14 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
     };
     figure::write_chart(
         &figs.join("noise_sweep"),
-        "Noise sweep: final latent loss (mean of the last tenth) and corrections against sigma",
+        "Noise sweep: final latent loss and corrections against sigma",
         &[
             Panel {
                 title: "final latent loss".into(),
                 x_label: "sigma".into(),
                 y_label: "latent loss".into(),
                 band: false,
+                legend_left: true,
                 series: vec![sweep_series("final loss", &|a| a.final_loss, PALETTE[0])],
             },
             Panel {
@@ -1068,6 +1071,7 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
                 x_label: "sigma".into(),
                 y_label: "corrections".into(),
                 band: false,
+                legend_left: true,
                 series: vec![sweep_series(
                     "corrections",
                     &|a| a.total_corrections,
