@@ -340,16 +340,11 @@ fn reproduce(args: &ReproduceArgs) -> Result<()> {
     );
     bar.set_style(
         ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} trials ({eta} left) {msg}",
+            "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} trials, {eta} left {msg}",
         )
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    bar.set_message(format!(
-        "{} trials x {} steps, {} threads",
-        o.trials,
-        o.steps,
-        pool.current_num_threads()
-    ));
+    bar.set_message(format!("({} threads)", pool.current_num_threads()));
     let started = Instant::now();
     let results = pool.install(|| reproduce::run_shard(&o, shard, &|| bar.inc(1)))?;
     bar.finish_and_clear();

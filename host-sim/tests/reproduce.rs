@@ -78,7 +78,11 @@ fn a_short_reproduction_writes_every_output_and_checks_every_claim() {
         assert!(!bytes.is_empty(), "{} is empty", p.display());
         match p.extension().and_then(|e| e.to_str()) {
             Some("png") => assert!(bytes.starts_with(b"\x89PNG"), "{}", p.display()),
-            Some("svg") => assert!(bytes.starts_with(b"<svg"), "{}", p.display()),
+            Some("svg") => assert!(
+                bytes.starts_with(b"<svg") && bytes.ends_with(b"</svg>\n"),
+                "{}",
+                p.display()
+            ),
             _ => {}
         }
     }
