@@ -31,6 +31,9 @@
 //! Laps are counted by progress: every full path length of progress within an episode is a lap.
 //! On an open path, reaching its end counts a lap and starts the next one from the start.
 //!
+//! "The start" is the scenario's start pose, or the one an episode was given
+//! ([`Episode::starting_at`], the seeded jitter of [`crate::experiment::StartJitter`]).
+//!
 //! The projection onto the path searches only 1 m behind to 2 m ahead of the previous one, so it
 //! cannot jump to a neighbouring hallway.
 
