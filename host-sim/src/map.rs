@@ -123,6 +123,48 @@ pub enum Cell {
     Unknown = 2,
 }
 
+/// Chebyshev distance transform (two passes, unit steps to the 8 neighbours, exact for the
+/// Chebyshev metric): per cell, the distance in cells to the nearest cell that is not free,
+/// the outside of the grid included; 0 for those cells. Saturates at `u16::MAX`.
+fn chebyshev_clearance(width: usize, height: usize, cells: &[Cell]) -> Vec<u16> {
+    let mut d = vec![0u16; width * height];
+    for r in 0..height {
+        for c in 0..width {
+            let i = r * width + c;
+            if cells[i] == Cell::Free {
+                // Distance to the outside (the ring of cells just beyond the border).
+                let border = (c + 1).min(r + 1).min(width - c).min(height - r);
+                d[i] = border.min(u16::MAX as usize) as u16;
+            }
+        }
+    }
+    let at = |d: &[u16], c: i64, r: i64| -> Option<u16> {
+        (c >= 0 && r >= 0 && (c as usize) < width && (r as usize) < height)
+            .then(|| d[r as usize * width + c as usize])
+    };
+    for r in 0..height as i64 {
+        for c in 0..width as i64 {
+            let i = r as usize * width + c as usize;
+            for (dc, dr) in [(-1, 0), (-1, -1), (0, -1), (1, -1)] {
+                if let Some(n) = at(&d, c + dc, r + dr) {
+                    d[i] = d[i].min(n.saturating_add(1));
+                }
+            }
+        }
+    }
+    for r in (0..height as i64).rev() {
+        for c in (0..width as i64).rev() {
+            let i = r as usize * width + c as usize;
+            for (dc, dr) in [(1, 0), (1, 1), (0, 1), (-1, 1)] {
+                if let Some(n) = at(&d, c + dc, r + dr) {
+                    d[i] = d[i].min(n.saturating_add(1));
+                }
+            }
+        }
+    }
+    d
+}
+
 /// A loaded occupancy grid. Row 0 is the **bottom** row (lowest `y`), as in
 /// `nav_msgs/OccupancyGrid`.
 #[derive(Clone, Debug)]
@@ -134,6 +176,9 @@ pub struct OccupancyGrid {
     cos_yaw: f64,
     sin_yaw: f64,
     cells: Vec<Cell>,
+    /// Per cell: Chebyshev distance, in cells, to the nearest cell that is not free (outside
+    /// the grid counts as not free); 0 for such cells. See [`OccupancyGrid::clearance_cells`].
+    clearance: Vec<u16>,
     /// Where the map came from (for messages).
     source: PathBuf,
 }
@@ -526,6 +571,7 @@ impl OccupancyGrid {
         cells: Vec<Cell>,
         source: PathBuf,
     ) -> Self {
+        let clearance = chebyshev_clearance(width, height, &cells);
         Self {
             width,
             height,
@@ -534,6 +580,7 @@ impl OccupancyGrid {
             cos_yaw: libm::cos(origin[2]),
             sin_yaw: libm::sin(origin[2]),
             cells,
+            clearance,
             source,
         }
     }
@@ -632,7 +679,23 @@ impl OccupancyGrid {
     #[inline]
     pub fn is_blocked(&self, x: f64, y: f64) -> bool {
         let (gx, gy) = self.to_grid(x, y);
-        self.blocked_cell(libm::floor(gx) as i64, libm::floor(gy) as i64)
+        // f64::floor is exact, like libm's, and a single instruction (the hot path of collision
+        // checks).
+        self.blocked_cell(gx.floor() as i64, gy.floor() as i64)
+    }
+
+    /// The Chebyshev distance, in cells, from the cell of the world point `(x, y)` to the
+    /// nearest cell that is not free (0 when that cell itself is not free or outside the map).
+    /// Every cell within `clearance_cells − 1` cells of it, along each axis, is free: a point
+    /// less than `(clearance_cells − 1)·resolution` metres from `(x, y)` lies in a free cell.
+    #[inline]
+    pub fn clearance_cells(&self, x: f64, y: f64) -> u16 {
+        let (gx, gy) = self.to_grid(x, y);
+        let (cx, cy) = (gx.floor() as i64, gy.floor() as i64);
+        if self.blocked_cell(cx, cy) {
+            return 0;
+        }
+        self.clearance[cy as usize * self.width + cx as usize]
     }
 
     /// Distance from `(x, y)` along heading `angle` (world frame, radians) to the first cell
@@ -643,8 +706,8 @@ impl OccupancyGrid {
         let (gx, gy) = self.to_grid(x, y);
         let a = angle - self.origin[2];
         let (dx, dy) = (libm::cos(a), libm::sin(a));
-        let mut cx = libm::floor(gx) as i64;
-        let mut cy = libm::floor(gy) as i64;
+        let mut cx = gx.floor() as i64;
+        let mut cy = gy.floor() as i64;
         if self.blocked_cell(cx, cy) {
             return 0.0;
         }
@@ -712,6 +775,29 @@ impl OccupancyGrid {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn clearance_is_the_chebyshev_distance_to_the_nearest_blocked_cell() {
+        // Walls, a pillar and a diagonal: check every cell against a brute-force search.
+        let g = OccupancyGrid::from_fn(23, 17, 0.1, [0.0, 0.0, 0.3], |c, r| {
+            (c == 7 && r < 9) || ((14..=16).contains(&c) && (10..=12).contains(&r)) || c + r == 30
+        });
+        let (w, h) = (23i64, 17i64);
+        for r in 0..h {
+            for c in 0..w {
+                let mut want = i64::MAX;
+                for br in -1..=h {
+                    for bc in -1..=w {
+                        if g.blocked_cell(bc, br) {
+                            want = want.min((bc - c).abs().max((br - r).abs()));
+                        }
+                    }
+                }
+                let got = g.clearance[(r * w + c) as usize] as i64;
+                assert_eq!(got, want, "cell ({c}, {r})");
+            }
+        }
+    }
 
     fn room() -> OccupancyGrid {
         OccupancyGrid::from_fn(40, 30, 0.1, [-1.0, -1.0, 0.0], |c, r| {
