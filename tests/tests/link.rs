@@ -187,15 +187,23 @@ fn faults_both_ways_lose_no_feedback_and_apply_none_twice() {
             move || FaultyLink::new(car_end, hostile(1)),
             car(FrameMode::Fd),
         );
+        let started = std::time::Instant::now();
         let mut remote = RemoteCar::new(
             FaultyLink::new(host, hostile(2)),
-            remote_config(FrameMode::Fd),
+            RemoteConfig {
+                try_timeout: Duration::from_millis(1),
+                ..remote_config(FrameMode::Fd)
+            },
         );
         let report = experiment::run_with(&config, &mut remote, &mut |_| {}).unwrap();
         let faults = remote.link().stats();
         let remote_stats = remote.stats();
         drop(remote);
         let stats = server.stop();
+        eprintln!(
+            "{transport}: {:.1} s, {remote_stats:?}, {stats:?}, {faults:?}",
+            started.elapsed().as_secs_f64()
+        );
         assert_same(&local, &report, transport);
         // Every feedback sent was applied, exactly once.
         assert_eq!(stats.feedback_applied, local.corrections(), "{transport}");
