@@ -19,6 +19,7 @@ use hil_mock::flash::{FlashStore, PAGE_SIZE};
 use hil_mock::server::{LinkBus, Server};
 use hil_mock::transport::fault::{FaultConfig, FaultyLink};
 use hil_mock::transport::memory::MemoryLink;
+use hil_mock::transport::record::{RecordingLink, read_log};
 use hil_mock::transport::slcan::SlcanLink;
 use hil_mock::transport::udp::UdpLink;
 use hil_mock::transport::{Link, LinkAddress};
@@ -133,12 +134,31 @@ fn same_seed_same_bits_in_process_over_memory_udp_and_slcan() {
     assert_same(&local, &memory, "memory link");
     assert_eq!(stats.feedback_applied, local.corrections());
 
+    // UDP, with the host's side recorded in the candump format.
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("host.log");
     let (host, car_end) = udp_pair();
     let server = ServerThread::spawn(move || car_end, car(FrameMode::Fd));
+    let host = RecordingLink::new(host, &log, "can0").unwrap();
     let (udp, _) = remote_run(&config, host, FrameMode::Fd);
     let stats = server.stop();
     assert_same(&local, &udp, "cannelloni over UDP");
     assert_eq!(stats.feedback_applied, local.corrections());
+    let frames = read_log(&log).unwrap();
+    let on = |id: u16| {
+        frames
+            .iter()
+            .filter(|l| l.frame.id().raw() == id as u32)
+            .count()
+    };
+    // Every observation (5 FD frames each in open space, more with objects) and its action.
+    assert!(on(0x104) >= 5 * 600, "{}", on(0x104));
+    assert_eq!(on(0x101), 600, "one action frame per tick");
+    assert_eq!(
+        on(0x107),
+        local.corrections() as usize,
+        "one ack per feedback"
+    );
 
     // slcan over TCP, classic CAN frames (56 per observation) both ways.
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
