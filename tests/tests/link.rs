@@ -153,12 +153,10 @@ fn same_seed_same_bits_in_process_over_memory_udp_and_slcan() {
     };
     // Every observation (5 FD frames each in open space, more with objects) and its action.
     assert!(on(0x104) >= 5 * 600, "{}", on(0x104));
-    assert_eq!(on(0x101), 600, "one action frame per tick");
-    assert_eq!(
-        on(0x107),
-        local.corrections() as usize,
-        "one ack per feedback"
-    );
+    // At least one action frame per tick and one ack per feedback (more when a slow answer
+    // made the host ask again).
+    assert!(on(0x101) >= 600, "{}", on(0x101));
+    assert!(on(0x107) >= local.corrections() as usize);
 
     // slcan over TCP, classic CAN frames (56 per observation) both ways.
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
