@@ -314,6 +314,18 @@ impl Drop for Child9 {
     }
 }
 
+/// Waits until `ready` (the supervisor restarted the server); a generous bound turns a stuck
+/// supervisor into a failure instead of a hang.
+fn wait_for(ready: impl Fn() -> bool) {
+    for _ in 0..60_000 {
+        if ready() {
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    panic!("the supervisor did not restart hil_mock within a minute");
+}
+
 /// A [`CarLink`] that has the car killed (and restarted) before some feedbacks.
 struct KillBeforeFeedback<'a, C: CarLink> {
     inner: C,
@@ -388,12 +400,10 @@ fn sigkill_and_restart_at_several_points_lose_nothing() {
     });
     let kill = |wait: bool| {
         // One kill at a time: wait for the previous restart, then ask for the next.
-        while done.load(Ordering::Relaxed) != requested.load(Ordering::Relaxed) {
-            std::thread::sleep(Duration::from_millis(1));
-        }
+        wait_for(|| done.load(Ordering::Relaxed) == requested.load(Ordering::Relaxed));
         let n = requested.fetch_add(1, Ordering::Relaxed) + 1;
-        while wait && done.load(Ordering::Relaxed) != n {
-            std::thread::sleep(Duration::from_millis(1));
+        if wait {
+            wait_for(|| done.load(Ordering::Relaxed) == n);
         }
     };
     let mut car = KillBeforeFeedback {
@@ -409,9 +419,7 @@ fn sigkill_and_restart_at_several_points_lose_nothing() {
     })
     .unwrap();
     let remote = car.inner;
-    while done.load(Ordering::Relaxed) != requested.load(Ordering::Relaxed) {
-        std::thread::sleep(Duration::from_millis(1));
-    }
+    wait_for(|| done.load(Ordering::Relaxed) == requested.load(Ordering::Relaxed));
     finished.store(true, Ordering::Relaxed);
     let log = supervisor.join().unwrap();
     eprintln!("{:?}\n{log}", remote.stats());
