@@ -15,8 +15,10 @@
 #![deny(unsafe_code)]
 
 mod bench;
+#[cfg(feature = "replay")]
+mod replay;
+mod slcan_bus;
 mod stack;
-#[allow(dead_code)]
 mod uart;
 
 use cortex_m_rt::entry;
@@ -26,7 +28,8 @@ use semihosting::{println, process};
 use static_cell::ConstStaticCell;
 
 /// The agent, built at compile time into .bss/.data: never on the stack.
-static AGENT: ConstStaticCell<Agent> = ConstStaticCell::new(Agent::new(Learner::new(ValidLearnerParams::DEFAULT)));
+static AGENT: ConstStaticCell<Agent> =
+    ConstStaticCell::new(Agent::new(Learner::new(ValidLearnerParams::DEFAULT)));
 
 fn learner() -> Learner {
     let params = LearnerParams::default().with_initial([1.0, 2.0, 1.0, 1.0, -3.0, 0.5]);
@@ -87,12 +90,61 @@ fn main() -> ! {
                 stack::region()
             );
         }
+        #[cfg(feature = "replay")]
+        Some("replay-count") => println!("replay-count {}", replay::count()),
+        #[cfg(feature = "replay")]
+        Some("replay") => {
+            let last = number(args.next()) as usize;
+            let run_last = args.next() == Some("do");
+            let (what, sum) = replay::replay(agent, last, run_last);
+            match what {
+                replay::Last::Restore => println!("replay {last} restore checksum {sum}"),
+                replay::Last::Act(t, a) => {
+                    println!("replay {last} act tick {t} action {a} checksum {sum}")
+                }
+                replay::Last::Feedback(t, ok) => {
+                    println!("replay {last} feedback tick {t} applied {ok} checksum {sum}")
+                }
+                replay::Last::Other => println!("replay {last} other checksum {sum}"),
+            }
+        }
+        Some("echo") => echo(),
         other => {
-            println!("error: unknown mode {:?}; expected bench-act N, bench-learn N or stack", other);
+            println!(
+                "error: unknown mode {:?}; expected bench-act N, bench-learn N or stack",
+                other
+            );
             process::exit(2)
         }
     }
     process::exit(0)
+}
+
+/// Diagnostic of the slcan link: every frame received on UART0 is answered with a frame whose
+/// identifier is one more and whose data are four little-endian `u16` counters of the bus: frames
+/// received, malformed lines, overlong lines, commands answered.
+fn echo() -> ! {
+    use protocol::can::{CanBus, CanFrame, CanId};
+    let Some(uart) = uart::Uart0::take() else {
+        process::exit(3)
+    };
+    let mut bus = slcan_bus::SlcanBus::new(uart);
+    loop {
+        if let Ok(Some(f)) = bus.receive() {
+            let id = CanId::standard(((f.id().raw() + 1) & 0x7FF) as u16).unwrap_or(f.id());
+            let s = bus.stats();
+            let mut data = [0u8; 8];
+            for (i, v) in [s.frames_in, s.bad_lines, s.overflows, s.commands]
+                .into_iter()
+                .enumerate()
+            {
+                data[2 * i..2 * i + 2].copy_from_slice(&(v as u16).to_le_bytes());
+            }
+            if let Ok(back) = CanFrame::new(id, &data) {
+                let _ = bus.transmit(&back);
+            }
+        }
+    }
 }
 
 #[panic_handler]
