@@ -11,14 +11,14 @@ use std::path::PathBuf;
 use firmware_core::feature::Feature;
 use firmware_core::observation::{Observation, SemanticClass, SemanticObject};
 use firmware_core::{
-    ActionFeedback, ActionIndex, Feedback, Learner, LearnerParams, PreferenceFeedback,
+    ActionFeedback, ActionIndex, ActionMask, Feedback, Learner, LearnerParams, PreferenceFeedback,
     SemanticFeedback,
 };
 use protocol::can::{CanFrame, FD_LENGTHS};
 use protocol::isotp::{FrameMode, Segmenter};
 use protocol::message::{
-    ActionCommand, DeliveryId, ErrorCode, ErrorReport, FeedbackMessage, Heartbeat,
-    MAX_MESSAGE_SIZE, Message, ObservationMessage,
+    ActionCommand, ConfigureMessage, DeliveryId, ErrorCode, ErrorReport, FeedbackMessage,
+    Heartbeat, MAX_MESSAGE_SIZE, Message, ObservationMessage,
 };
 use protocol::stream::{Direction, Stream};
 
@@ -61,7 +61,9 @@ fn messages() -> Vec<(&'static str, Message)> {
         ),
         (
             "action",
-            Message::Action(ActionCommand::new(41, Some(a(12)))),
+            Message::Action(
+                ActionCommand::new(41, Some(a(12))).with_allowed(ActionMask::from_bits(0xF0F0)),
+            ),
         ),
         ("stop", Message::Action(ActionCommand::stop(42))),
         (
@@ -99,7 +101,15 @@ fn messages() -> Vec<(&'static str, Message)> {
         ),
         ("heartbeat", Message::Heartbeat(Heartbeat { counter: 513 })),
         ("weights", Message::Weights(learner.snapshot())),
-        ("configure", Message::Configure(LearnerParams::paper())),
+        (
+            "configure",
+            Message::Configure(ConfigureMessage {
+                session: 9,
+                snapshot: Learner::new(LearnerParams::paper().check().expect("paper is valid"))
+                    .snapshot(),
+            }),
+        ),
+        ("weights_request", Message::WeightsRequest),
         ("reset", Message::Reset),
         (
             "error",

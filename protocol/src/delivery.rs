@@ -29,11 +29,11 @@
 //!   flash, or a random byte) and should send [`Message::Reset`] first.
 //!   The receiver starts a fresh window whenever the session changes, so the new sender's
 //!   sequence numbers are not mistaken for the old one's.
-//! * **Receiver restart.** The window is lost; copies of feedback applied before the restart
-//!   would be applied again. The car also forgets its recent ticks when it restarts, so such
-//!   feedback is refused with [`NackCode::UnknownTick`] rather than applied. (A car that could
-//!   apply feedback about ticks from before its restart would have to persist the window with
-//!   its weights.)
+//! * **Receiver restart.** The receiver is persisted with the weights after every applied
+//!   feedback ([`crate::car::Persisted`]), so a car restarted from flash still answers copies of
+//!   feedback it applied before the restart with their [`Ack`], without applying them again. A
+//!   receiver that lost its window would hand such copies to `apply` again, where the car's agent
+//!   refuses them with [`NackCode::UnknownTick`] (its recent ticks are forgotten on a restart).
 //!
 //! ```
 //! use firmware_core::{ActionFeedback, ActionIndex, Feedback};
@@ -53,6 +53,8 @@
 use core::fmt;
 
 use firmware_core::Feedback;
+use postcard::experimental::max_size::MaxSize;
+use serde::{Deserialize, Serialize};
 
 use crate::message::{Ack, DeliveryId, FeedbackMessage, Message, Nack, NackCode};
 
@@ -275,7 +277,7 @@ impl FeedbackSender {
 }
 
 /// What applying a feedback came to; the receiver remembers it per sequence number.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
 pub enum Verdict {
     /// Applied: answered with an [`Ack`].
     Applied,
@@ -311,7 +313,12 @@ impl From<Reply> for Message {
 }
 
 /// The car's side: applies each feedback once and answers every copy.
-#[derive(Clone, Debug)]
+///
+/// It is `Serialize`/`Deserialize` so that a car can persist it with its weights
+/// ([`crate::car::Persisted`]): a car restarted from flash then still recognises copies of the
+/// feedback it applied before the restart. Every field value is a valid state, so a decoded
+/// receiver needs no further check.
+#[derive(Clone, PartialEq, Eq, Debug, Serialize, Deserialize, MaxSize)]
 pub struct FeedbackReceiver {
     session: Option<u8>,
     highest: u8,

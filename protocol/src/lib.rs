@@ -10,7 +10,7 @@
 //! ```
 //!
 //! * [`message`]: the messages (observation, action command, feedback, ack/nack, heartbeat,
-//!   weights report, configuration, reset, error), their maximum sizes, total decoding.
+//!   weights report, configuration, reset, error, weights request), their maximum sizes, total decoding.
 //! * [`envelope`]: the versioned, CRC-checked postcard envelope and its checked view.
 //! * [`can`]: checked CAN / CAN FD frames and the [`can::CanBus`] trait transports implement.
 //! * [`slcan`]: the Lawicel serial-line CAN codec (the car's UART speaks it).
@@ -19,6 +19,8 @@
 //! * [`link`]: the two glued together: [`link::transmit`] and the per-stream [`link::Inbox`].
 //! * [`delivery`]: acknowledged feedback: retransmission with bounded retries, dedupe window.
 //! * [`budget`]: bits on the wire per frame, message and control tick; bus load.
+//! * [`car`]: the car's node ([`car::CarNode`]): the agent behind the link, exactly-once
+//!   feedback persisted before its ack, the watchdog; shared by `hil_mock` and the firmware.
 //!
 //! Decoding is total: any byte sequence gives a value or an error, never a panic (fuzzed in
 //! `fuzz/`). The wire format is specified in `docs/protocol.md`.
@@ -53,6 +55,7 @@
 
 pub mod budget;
 pub mod can;
+pub mod car;
 pub mod delivery;
 pub mod envelope;
 pub mod isotp;

@@ -7,15 +7,16 @@
 //! | # | variant | direction | payload |
 //! |---|---|---|---|
 //! | 0 | [`Message::Observation`] | host → car | [`ObservationMessage`]: tick number and [`Observation`] |
-//! | 1 | [`Message::Action`] | car → host | [`ActionCommand`]: tick number and the trajectory to track, or `None` (stop) |
+//! | 1 | [`Message::Action`] | car → host | [`ActionCommand`]: tick number, the trajectory to track or `None` (stop), the collision mask |
 //! | 2 | [`Message::Feedback`] | host → car | [`FeedbackMessage`]: delivery id, tick number, [`Feedback`] |
 //! | 3 | [`Message::Ack`] | car → host | [`Ack`]: the delivery id of an applied feedback |
 //! | 4 | [`Message::Nack`] | car → host | [`Nack`]: the delivery id of a refused feedback and why |
 //! | 5 | [`Message::Heartbeat`] | both | [`Heartbeat`]: a wrapping counter |
 //! | 6 | [`Message::Weights`] | car → host | [`LearnerSnapshot`] |
-//! | 7 | [`Message::Configure`] | host → car | [`LearnerParams`] |
+//! | 7 | [`Message::Configure`] | host → car | [`ConfigureMessage`]: a session number and the [`LearnerSnapshot`] to start from |
 //! | 8 | [`Message::Reset`] | host → car | nothing |
 //! | 9 | [`Message::Error`] | both | [`ErrorReport`] |
+//! | 10 | [`Message::WeightsRequest`] | host → car | nothing; answered with [`Message::Weights`] |
 //!
 //! The variant number is the first payload byte (a postcard varint); variants and fields are
 //! never reordered within a protocol version (the golden-bytes tests pin them). The largest
@@ -30,9 +31,8 @@
 //! (which range-checks action indices, enum tags and list lengths), requires every byte to be
 //! used, and checks the numbers the *protocol* defines (the [`Track`] of an action command:
 //! finite and within the car's limits). The values of `firmware-core` types (observation,
-//! feedback, parameters, snapshot) are checked by `firmware-core` when they are used
-//! ([`Observation::validate`], [`LearnerParams::check`], `Learner::restore`), so they are not
-//! checked twice.
+//! feedback, snapshot) are checked by `firmware-core` when they are used
+//! ([`Observation::validate`], `Learner::restore`), so they are not checked twice.
 //!
 //! ```
 //! use protocol::message::{ActionCommand, Message, MAX_MESSAGE_SIZE};
@@ -50,7 +50,7 @@ use core::fmt;
 use firmware_core::agent::FeedbackError;
 use firmware_core::lattice::{self, MAX_PLANNING_STEERING};
 use firmware_core::observation::MAX_SPEED;
-use firmware_core::{ActionIndex, Feedback, LearnerParams, LearnerSnapshot};
+use firmware_core::{ActionIndex, ActionMask, Feedback, LearnerSnapshot};
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
@@ -144,29 +144,65 @@ impl Track {
 pub struct ActionCommand {
     /// The tick of the observation this answers.
     pub tick: u32,
-    /// The trajectory to track; `None`: every trajectory collides, stop.
+    /// The trajectory to track; `None`: every trajectory collides (or the car's watchdog
+    /// stopped it), stop.
     pub track: Option<Track>,
+    /// The trajectories the car found collision-free in this tick (the evaluator's mask), so the
+    /// host can check that both sides see the same world. Empty in a watchdog stop.
+    pub allowed: ActionMask,
 }
 
 impl ActionCommand {
-    /// The command for `action` in `tick`: its lattice trajectory, or a stop for `None`.
+    /// The command for `action` in `tick`: its lattice trajectory, or a stop for `None`, with
+    /// an empty mask (see [`ActionCommand::with_allowed`]).
     pub fn new(tick: u32, action: Option<ActionIndex>) -> Self {
         Self {
             tick,
             track: action.map(Track::of),
+            allowed: ActionMask::NONE,
         }
     }
 
-    /// A stop in `tick`.
+    /// The same command with the collision mask `allowed`.
+    pub const fn with_allowed(mut self, allowed: ActionMask) -> Self {
+        self.allowed = allowed;
+        self
+    }
+
+    /// A stop in `tick`, with an empty mask.
     pub const fn stop(tick: u32) -> Self {
-        Self { tick, track: None }
+        Self {
+            tick,
+            track: None,
+            allowed: ActionMask::NONE,
+        }
+    }
+
+    /// The action of the track, if any.
+    pub fn action(&self) -> Option<ActionIndex> {
+        self.track.map(|t| t.action)
     }
 }
 
 impl From<&firmware_core::agent::Decision> for ActionCommand {
     fn from(d: &firmware_core::agent::Decision) -> Self {
-        Self::new(d.tick, d.action)
+        Self::new(d.tick, d.action).with_allowed(d.allowed)
     }
+}
+
+/// A learner configuration, host → car: the car replaces its learner by the one `snapshot`
+/// describes and remembers `session`. A fresh learner is `Learner::new(params).snapshot()`.
+///
+/// A configure whose `session` equals the car's current one is a copy (a retransmission, a
+/// delayed frame): the car answers with its current weights and changes nothing, so a duplicated
+/// configure never resets a running learner. A host picks a new session for each new
+/// configuration.
+#[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+pub struct ConfigureMessage {
+    /// The host's configuration session.
+    pub session: u8,
+    /// The learner to start from (parameters and state).
+    pub snapshot: LearnerSnapshot,
 }
 
 /// Identifies one feedback delivery: the sender's session and its sequence number in it.
@@ -315,13 +351,15 @@ pub enum Message {
     Heartbeat(Heartbeat),
     /// The learner's parameters and state, car → host.
     Weights(LearnerSnapshot),
-    /// New learner parameters, host → car (the car answers with a weights report or an error).
-    Configure(LearnerParams),
+    /// A learner to start from, host → car (the car answers with a weights report or an error).
+    Configure(ConfigureMessage),
     /// Host → car: stop, forget the recent ticks and the feedback dedupe window, keep the
     /// learner. The host sends it when it (re)starts.
     Reset,
     /// Something went wrong, both ways.
     Error(ErrorReport),
+    /// Host → car: report the learner (the car answers with [`Message::Weights`]).
+    WeightsRequest,
 }
 
 /// The kind of a [`Message`], without its payload: the variant, in the same order.
@@ -348,6 +386,8 @@ pub enum MessageKind {
     Reset = 8,
     /// [`Message::Error`].
     Error = 9,
+    /// [`Message::WeightsRequest`].
+    WeightsRequest = 10,
 }
 
 /// Bytes of a variant number (postcard varint of values below 128).
@@ -359,7 +399,7 @@ const fn sealed(payload_max: usize) -> usize {
 
 impl MessageKind {
     /// Every kind, in variant order.
-    pub const ALL: [MessageKind; 10] = [
+    pub const ALL: [MessageKind; 11] = [
         MessageKind::Observation,
         MessageKind::Action,
         MessageKind::Feedback,
@@ -370,6 +410,7 @@ impl MessageKind {
         MessageKind::Configure,
         MessageKind::Reset,
         MessageKind::Error,
+        MessageKind::WeightsRequest,
     ];
 
     /// The largest sealed message of this kind (envelope included), in bytes.
@@ -382,9 +423,10 @@ impl MessageKind {
             MessageKind::Nack => sealed(Nack::POSTCARD_MAX_SIZE),
             MessageKind::Heartbeat => sealed(Heartbeat::POSTCARD_MAX_SIZE),
             MessageKind::Weights => sealed(LearnerSnapshot::POSTCARD_MAX_SIZE),
-            MessageKind::Configure => sealed(LearnerParams::POSTCARD_MAX_SIZE),
+            MessageKind::Configure => sealed(ConfigureMessage::POSTCARD_MAX_SIZE),
             MessageKind::Reset => sealed(0),
             MessageKind::Error => sealed(ErrorReport::POSTCARD_MAX_SIZE),
+            MessageKind::WeightsRequest => sealed(0),
         }
     }
 
@@ -401,6 +443,7 @@ impl MessageKind {
             MessageKind::Configure => "configure",
             MessageKind::Reset => "reset",
             MessageKind::Error => "error",
+            MessageKind::WeightsRequest => "weights request",
         }
     }
 }
@@ -487,6 +530,7 @@ impl Message {
             Message::Configure(_) => MessageKind::Configure,
             Message::Reset => MessageKind::Reset,
             Message::Error(_) => MessageKind::Error,
+            Message::WeightsRequest => MessageKind::WeightsRequest,
         }
     }
 
@@ -545,7 +589,8 @@ pub(crate) mod strategies {
     use firmware_core::feature::Feature;
     use firmware_core::observation::{MAX_OBJECTS, PathReference, SemanticClass, SemanticObject};
     use firmware_core::{
-        ActionFeedback, LearnerKind, LearnerState, Polarity, PreferenceFeedback, SemanticFeedback,
+        ActionFeedback, LearnerKind, LearnerParams, LearnerState, Polarity, PreferenceFeedback,
+        SemanticFeedback,
     };
     use proptest::prelude::*;
 
@@ -633,33 +678,21 @@ pub(crate) mod strategies {
             (any::<u32>(), observation()).prop_map(|(tick, observation)| Message::Observation(
                 ObservationMessage { tick, observation }
             )),
-            (any::<u32>(), proptest::option::of(action()))
-                .prop_map(|(tick, a)| Message::Action(ActionCommand::new(tick, a))),
+            (any::<u32>(), proptest::option::of(action()), any::<u64>()).prop_map(
+                |(tick, a, bits)| Message::Action(
+                    ActionCommand::new(tick, a).with_allowed(ActionMask::from_bits(bits))
+                )
+            ),
             (id(), any::<u32>(), feedback()).prop_map(|(id, tick, feedback)| {
                 Message::Feedback(FeedbackMessage { id, tick, feedback })
             }),
             id().prop_map(|id| Message::Ack(Ack { id })),
             (id(), nack_code()).prop_map(|(id, code)| Message::Nack(Nack { id, code })),
             any::<u16>().prop_map(|counter| Message::Heartbeat(Heartbeat { counter })),
-            (
-                params(),
-                proptest::array::uniform6(real()),
-                proptest::array::uniform6(real()),
-                any::<u32>()
-            )
-                .prop_map(|(params, iterate, average, steps)| Message::Weights(
-                    LearnerSnapshot {
-                        version: firmware_core::SNAPSHOT_VERSION,
-                        params,
-                        state: LearnerState {
-                            iterate,
-                            average,
-                            accumulator: [0.0; 6],
-                            steps,
-                        },
-                    }
-                )),
-            params().prop_map(Message::Configure),
+            snapshot().prop_map(Message::Weights),
+            (any::<u8>(), snapshot()).prop_map(|(session, snapshot)| Message::Configure(
+                ConfigureMessage { session, snapshot }
+            )),
             Just(Message::Reset),
             (0usize..7, proptest::option::of(any::<u32>())).prop_map(|(c, tick)| {
                 let codes = [
@@ -676,7 +709,27 @@ pub(crate) mod strategies {
                     tick,
                 })
             }),
+            Just(Message::WeightsRequest),
         ]
+    }
+
+    fn snapshot() -> impl Strategy<Value = LearnerSnapshot> {
+        (
+            params(),
+            proptest::array::uniform6(real()),
+            proptest::array::uniform6(real()),
+            any::<u32>(),
+        )
+            .prop_map(|(params, iterate, average, steps)| LearnerSnapshot {
+                version: firmware_core::SNAPSHOT_VERSION,
+                params,
+                state: LearnerState {
+                    iterate,
+                    average,
+                    accumulator: [0.0; 6],
+                    steps,
+                },
+            })
     }
 
     /// Polarity is re-exported here so the tests below can name it.
@@ -691,7 +744,8 @@ mod tests {
     use firmware_core::feature::Feature;
     use firmware_core::observation::{PathReference, SemanticClass, SemanticObject};
     use firmware_core::{
-        ActionFeedback, LearnerKind, LearnerState, PreferenceFeedback, SemanticFeedback,
+        ActionFeedback, LearnerKind, LearnerParams, LearnerState, PreferenceFeedback,
+        SemanticFeedback,
     };
     use proptest::prelude::*;
 
@@ -782,12 +836,22 @@ mod tests {
             0, 0, 0, 0,  0x00, 0x00, 0x00, 0x3F, // segment 1: steering 0, length 0.5
             0, 0, 0, 0,  0x00, 0x00, 0x00, 0x3F, // segment 2: steering 0, length 0.5
             0x00, 0x00, 0x80, 0x3F,             // speed 1.0
+            0x80, 0x01,                         // allowed: action 7 alone (a u64 varint)
         ];
+        let mask = ActionMask::from_bits(1 << 7);
         test_one(
-            Message::Action(ActionCommand::new(300, Some(a(0)))),
+            Message::Action(ActionCommand::new(300, Some(a(0))).with_allowed(mask)),
             &straight,
         );
-        test_one(Message::Action(ActionCommand::stop(7)), &[1, 7, 0]);
+        test_one(Message::Action(ActionCommand::stop(7)), &[1, 7, 0, 0]);
+        // Every action allowed: 64 one bits, a ten-byte varint.
+        let mut all = std::vec![1, 7, 0];
+        all.extend_from_slice(&[0xFF; 9]);
+        all.push(0x01);
+        test_one(
+            Message::Action(ActionCommand::stop(7).with_allowed(ActionMask::ALL)),
+            &all,
+        );
         // A curved one: the lattice's numbers, written as they are.
         let t = Track::of(a(1));
         let mut payload = std::vec![1, 9, 1, 1];
@@ -796,6 +860,7 @@ mod tests {
             payload.extend_from_slice(&f(s.length));
         }
         payload.extend_from_slice(&f(t.speed));
+        payload.push(0); // empty mask
         assert!(
             t.segments[1].steering > 0.1,
             "action 1 turns left in its second half"
@@ -900,12 +965,36 @@ mod tests {
 
         let mut cfg = LearnerParams::new(LearnerKind::AdaGrad).with_radius(2.0);
         cfg.initial[5] = -1.0;
-        let mut payload = std::vec![7, 3]; // variant 7, kind AdaGrad
+        let fresh = LearnerSnapshot {
+            version: 1,
+            params: cfg,
+            state: LearnerState {
+                iterate: cfg.initial,
+                average: cfg.initial,
+                accumulator: [0.0; 6],
+                steps: 0,
+            },
+        };
+        let weights = |payload: &mut std::vec::Vec<u8>| {
+            payload.extend_from_slice(&[0; 20]);
+            payload.extend_from_slice(&[0x00, 0x00, 0x80, 0xBF]); // [5] = -1.0
+        };
+        let mut payload = std::vec![7, 200, 1, 3]; // variant 7, session 200, version 1, AdaGrad
         payload.extend_from_slice(&[0xCD, 0xCC, 0xCC, 0x3D]); // step 0.1
         payload.extend_from_slice(&[1, 0x00, 0x00, 0x00, 0x40]); // Some(2.0)
-        payload.extend_from_slice(&[0; 20]);
-        payload.extend_from_slice(&[0x00, 0x00, 0x80, 0xBF]); // initial[5] = -1.0
-        test_one(Message::Configure(cfg), &payload);
+        weights(&mut payload); // initial
+        weights(&mut payload); // iterate
+        weights(&mut payload); // average
+        payload.extend_from_slice(&[0; 24]); // accumulator
+        payload.push(0); // steps
+        test_one(
+            Message::Configure(ConfigureMessage {
+                session: 200,
+                snapshot: fresh,
+            }),
+            &payload,
+        );
+        test_one(Message::WeightsRequest, &[10]);
     }
 
     #[test]
@@ -938,8 +1027,10 @@ mod tests {
                 386,
             ),
             (
-                Message::Action(ActionCommand::new(u32::MAX, Some(a(63)))),
-                31,
+                Message::Action(
+                    ActionCommand::new(u32::MAX, Some(a(63))).with_allowed(ActionMask::ALL),
+                ),
+                41,
             ),
             (
                 Message::Feedback(FeedbackMessage {
@@ -971,7 +1062,22 @@ mod tests {
                 }),
                 118,
             ),
-            (Message::Configure(params), 38),
+            (
+                Message::Configure(ConfigureMessage {
+                    session: u8::MAX,
+                    snapshot: LearnerSnapshot {
+                        version: u16::MAX,
+                        params,
+                        state: LearnerState {
+                            iterate: [1.0; 6],
+                            average: [1.0; 6],
+                            accumulator: [1.0; 6],
+                            steps: u32::MAX,
+                        },
+                    },
+                }),
+                119,
+            ),
             (Message::Reset, 4),
             (
                 Message::Error(ErrorReport {
@@ -980,6 +1086,7 @@ mod tests {
                 }),
                 11,
             ),
+            (Message::WeightsRequest, 4),
         ];
         let mut buf = [0u8; MAX_MESSAGE_SIZE];
         for (i, (msg, size)) in worst.into_iter().enumerate() {
@@ -1018,6 +1125,7 @@ mod tests {
             let msg = Message::Action(ActionCommand {
                 tick: 1,
                 track: Some(t),
+                allowed: ActionMask::ALL,
             });
             let mut buf = [0u8; MAX_MESSAGE_SIZE];
             Message::parse(msg.emit(&mut buf).unwrap())
@@ -1067,7 +1175,7 @@ mod tests {
             Err(DecodeError::Envelope(EnvelopeError::TrailingBytes))
         );
         assert_eq!(
-            Message::parse(&reseal(&[1, 10])),
+            Message::parse(&reseal(&[1, 11])),
             Err(DecodeError::Envelope(EnvelopeError::Decode))
         );
         // An action index of 64 is not an action.

@@ -14,7 +14,7 @@
 //! | 0x104 / 0x105 | [`Class::Observation`] | observation | (unused) |
 //! | 0x106 / 0x107 | [`Class::Feedback`] | feedback | ack, nack |
 //! | 0x108 / 0x109 | [`Class::Error`] | error report | error report |
-//! | 0x10A / 0x10B | [`Class::Config`] | learner configuration | weights report |
+//! | 0x10A / 0x10B | [`Class::Config`] | learner configuration, weights request | weights report |
 //!
 //! The action command outranks everything else of the protocol because the car must not wait for
 //! an observation's 56 frames to say "stop". Identifiers below [`ID_BASE`] stay free for traffic
@@ -83,7 +83,7 @@ pub enum Class {
     Feedback = 3,
     /// Error reports, both ways.
     Error = 4,
-    /// Learner configuration (host → car), weights reports (car → host).
+    /// Learner configuration and weights requests (host → car), weights reports (car → host).
     Config = 5,
 }
 
@@ -106,7 +106,9 @@ impl Class {
             MessageKind::Observation => Class::Observation,
             MessageKind::Feedback | MessageKind::Ack | MessageKind::Nack => Class::Feedback,
             MessageKind::Error => Class::Error,
-            MessageKind::Configure | MessageKind::Weights => Class::Config,
+            MessageKind::Configure | MessageKind::Weights | MessageKind::WeightsRequest => {
+                Class::Config
+            }
         }
     }
 }
@@ -117,6 +119,7 @@ pub const fn direction_of(kind: MessageKind) -> Option<Direction> {
         MessageKind::Observation
         | MessageKind::Feedback
         | MessageKind::Configure
+        | MessageKind::WeightsRequest
         | MessageKind::Reset => Some(Direction::HostToCar),
         MessageKind::Action | MessageKind::Ack | MessageKind::Nack | MessageKind::Weights => {
             Some(Direction::CarToHost)
