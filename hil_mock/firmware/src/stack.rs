@@ -49,11 +49,6 @@ pub fn depth_below(painted_to: usize) -> usize {
     painted_to.saturating_sub(lowest_used())
 }
 
-/// Bytes between the top of the stack and `painted_to`: the frames of `main` and its callers.
-pub fn used_above(painted_to: usize) -> usize {
-    bounds().1 - painted_to
-}
-
 /// Bytes of stack used at the deepest point since the last [`paint`].
 pub fn high_water() -> usize {
     bounds().1 - lowest_used()
