@@ -1,4 +1,4 @@
-//! Two flash pages in a file, holding the learner's snapshot.
+//! Two flash pages in a file, holding the car's persisted state (learner and dedupe window).
 //!
 //! The car keeps its weights in two pages of flash and writes them alternately: a write always
 //! goes to the page that does *not* hold the newest good snapshot, so a write torn by a reset or
@@ -9,28 +9,37 @@
 //!
 //! | bytes | content |
 //! |---|---|
-//! | 0..4 | magic `b"CFW1"` |
+//! | 0..4 | magic `b"CFW2"` |
 //! | 4..8 | generation `u32`, one more than the previous write's |
 //! | 8..10 | payload length `n` |
-//! | 10..10+n | the payload: a protocol envelope (version, postcard, CRC-16) of a [`LearnerSnapshot`] |
+//! | 10..10+n | the payload: a protocol envelope (version, postcard, CRC-16) of a [`Persisted`]: session, learner snapshot, feedback dedupe window (at most [`PERSISTED_MAX_SIZE`] bytes) |
 //! | 10+n..14+n | CRC-32/ISO-HDLC of bytes 0..10+n |
 //!
 //! A page is good when the magic, the length, both CRCs, the envelope's version and the
-//! snapshot's own checks ([`Learner::restore`]) all pass.
+//! snapshot's own checks ([`Learner::restore`]) all pass. (Format history: `CFW1` pages held a
+//! bare `LearnerSnapshot`; they read as corrupt.)
+//!
+//! [`FlashStore`] implements [`Persist`], so a [`protocol::car::CarNode`] writes through it.
 
 use std::fs::{File, OpenOptions};
 use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use firmware_core::{Learner, LearnerSnapshot};
+use firmware_core::Learner;
+use protocol::car::{PERSISTED_MAX_SIZE, Persist, Persisted};
 
 /// Size of one page.
 pub const PAGE_SIZE: usize = 256;
 
-const MAGIC: [u8; 4] = *b"CFW1";
+const MAGIC: [u8; 4] = *b"CFW2";
 const HEADER: usize = 10;
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 const MAX_PAYLOAD: usize = PAGE_SIZE - HEADER - 4;
+
+const _: () = assert!(
+    PERSISTED_MAX_SIZE <= MAX_PAYLOAD,
+    "the largest persisted state fits a page"
+);
 
 /// Why the store failed. Nothing already stored is lost by a failure.
 #[derive(Debug, thiserror::Error)]
@@ -43,8 +52,8 @@ pub enum FlashError {
         /// What the OS said.
         source: std::io::Error,
     },
-    /// The snapshot does not fit in a page (cannot happen with this build's snapshot type).
-    #[error("snapshot does not fit in a {PAGE_SIZE}-byte page")]
+    /// The state does not fit in a page (cannot happen: checked at compile time).
+    #[error("state does not fit in a {PAGE_SIZE}-byte page")]
     TooLarge,
 }
 
@@ -59,11 +68,13 @@ pub enum PageStatus {
     Corrupt,
 }
 
-/// The learner restored from the newest good page.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The state restored from the newest good page.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Restored {
     /// The learner, continuing where the snapshot left it.
     pub learner: Learner,
+    /// Everything persisted (session, snapshot, dedupe window).
+    pub state: Persisted,
     /// The snapshot's generation.
     pub generation: u32,
     /// The page it came from (0 or 1).
@@ -80,7 +91,7 @@ pub struct FlashStore {
     pages: [PageStatus; 2],
 }
 
-fn decode_page(page: &[u8]) -> Result<(u32, Learner), PageStatus> {
+fn decode_page(page: &[u8]) -> Result<(u32, Learner, Persisted), PageStatus> {
     if page.iter().all(|&b| b == 0xFF) {
         return Err(PageStatus::Empty);
     }
@@ -101,15 +112,15 @@ fn decode_page(page: &[u8]) -> Result<(u32, Learner), PageStatus> {
     if CRC32.checksum(&page[..HEADER + n]) != stored {
         return Err(PageStatus::Corrupt);
     }
-    let snapshot: LearnerSnapshot =
+    let state: Persisted =
         protocol::open(&page[HEADER..HEADER + n]).map_err(|_| PageStatus::Corrupt)?;
-    let learner = Learner::restore(&snapshot).map_err(|_| PageStatus::Corrupt)?;
-    Ok((generation, learner))
+    let learner = Learner::restore(&state.snapshot).map_err(|_| PageStatus::Corrupt)?;
+    Ok((generation, learner, state))
 }
 
-fn encode_page(generation: u32, snapshot: &LearnerSnapshot) -> Result<[u8; PAGE_SIZE], FlashError> {
+fn encode_page(generation: u32, state: &Persisted) -> Result<[u8; PAGE_SIZE], FlashError> {
     let mut page = [0xFFu8; PAGE_SIZE];
-    let n = protocol::seal(snapshot, &mut page[HEADER..HEADER + MAX_PAYLOAD])
+    let n = protocol::seal(state, &mut page[HEADER..HEADER + MAX_PAYLOAD])
         .map_err(|_| FlashError::TooLarge)?
         .len();
     page[..4].copy_from_slice(&MAGIC);
@@ -121,7 +132,7 @@ fn encode_page(generation: u32, snapshot: &LearnerSnapshot) -> Result<[u8; PAGE_
 }
 
 impl FlashStore {
-    /// Opens (or creates) the store at `path` and restores the newest good snapshot, if any.
+    /// Opens (or creates) the store at `path` and restores the newest good state, if any.
     ///
     /// A file of the wrong size is read as far as it goes; missing bytes count as erased.
     pub fn open(path: impl AsRef<Path>) -> Result<(Self, Option<Restored>), FlashError> {
@@ -145,11 +156,12 @@ impl FlashStore {
         let mut best: Option<Restored> = None;
         for (i, status) in pages.iter_mut().enumerate() {
             match decode_page(&bytes[i * PAGE_SIZE..(i + 1) * PAGE_SIZE]) {
-                Ok((generation, learner)) => {
+                Ok((generation, learner, state)) => {
                     *status = PageStatus::Good(generation);
-                    if best.is_none_or(|b| generation > b.generation) {
+                    if best.as_ref().is_none_or(|b| generation > b.generation) {
                         best = Some(Restored {
                             learner,
+                            state,
                             generation,
                             page: i,
                         });
@@ -161,7 +173,7 @@ impl FlashStore {
         let store = Self {
             file,
             path,
-            newest: best.map(|b| (b.page, b.generation)),
+            newest: best.as_ref().map(|b| (b.page, b.generation)),
             pages,
         };
         Ok((store, best))
@@ -177,14 +189,14 @@ impl FlashStore {
         self.newest.map(|(_, g)| g)
     }
 
-    /// Writes `snapshot` to the page not holding the newest good one, flushes it to disk, and
+    /// Writes `state` to the page not holding the newest good one, flushes it to disk, and
     /// returns its generation.
-    pub fn save(&mut self, snapshot: &LearnerSnapshot) -> Result<u32, FlashError> {
+    pub fn save(&mut self, state: &Persisted) -> Result<u32, FlashError> {
         let (page, generation) = match self.newest {
             Some((p, g)) => (1 - p, g.wrapping_add(1)),
             None => (0, 1),
         };
-        let bytes = encode_page(generation, snapshot)?;
+        let bytes = encode_page(generation, state)?;
         let io = |source| FlashError::Io {
             path: self.path.clone(),
             source,
@@ -200,10 +212,19 @@ impl FlashStore {
     }
 }
 
+impl Persist for FlashStore {
+    type Error = FlashError;
+
+    fn persist(&mut self, state: &Persisted) -> Result<(), FlashError> {
+        self.save(state).map(|_| ())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use firmware_core::{LearnerParams, OnlineLearner};
+    use protocol::delivery::FeedbackReceiver;
 
     fn learner_after(steps: usize) -> Learner {
         let mut l = Learner::new(LearnerParams::default().check().unwrap());
@@ -213,11 +234,19 @@ mod tests {
         l
     }
 
+    fn state_after(steps: usize) -> Persisted {
+        Persisted {
+            session: Some(steps as u8),
+            snapshot: learner_after(steps).snapshot(),
+            receiver: FeedbackReceiver::new(),
+        }
+    }
+
     #[test]
     fn a_snapshot_fits_in_a_page_with_room() {
-        let page = encode_page(1, &learner_after(3).snapshot()).unwrap();
+        let page = encode_page(1, &state_after(3)).unwrap();
         let n = u16::from_le_bytes([page[8], page[9]]) as usize;
-        assert!(n < MAX_PAYLOAD / 2, "payload {n} bytes");
+        assert!(n <= PERSISTED_MAX_SIZE, "payload {n} bytes");
     }
 
     #[test]
@@ -228,7 +257,7 @@ mod tests {
         assert!(restored.is_none());
         assert_eq!(store.pages(), [PageStatus::Empty; 2]);
         for k in 1..=5 {
-            assert_eq!(store.save(&learner_after(k).snapshot()).unwrap(), k as u32);
+            assert_eq!(store.save(&state_after(k)).unwrap(), k as u32);
         }
         drop(store);
         let (store, restored) = FlashStore::open(&path).unwrap();
@@ -243,8 +272,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("flash.bin");
         let (mut store, _) = FlashStore::open(&path).unwrap();
-        store.save(&learner_after(1).snapshot()).unwrap(); // page 0, gen 1
-        store.save(&learner_after(2).snapshot()).unwrap(); // page 1, gen 2
+        store.save(&state_after(1)).unwrap(); // page 0, gen 1
+        store.save(&state_after(2)).unwrap(); // page 1, gen 2
         drop(store);
         // Flip one byte in the middle of page 1's payload.
         let mut bytes = std::fs::read(&path).unwrap();
@@ -259,7 +288,7 @@ mod tests {
         let (mut store, restored) = FlashStore::open(&path).unwrap();
         assert_eq!(restored.unwrap().learner, learner_after(1));
         // The next save overwrites the bad page, never the good one.
-        assert_eq!(store.save(&learner_after(3).snapshot()).unwrap(), 2);
+        assert_eq!(store.save(&state_after(3)).unwrap(), 2);
         let (store, restored) = FlashStore::open(&path).unwrap();
         assert_eq!(store.pages(), [PageStatus::Good(1), PageStatus::Good(2)]);
         assert_eq!(restored.unwrap().learner, learner_after(3));

@@ -3,14 +3,19 @@
 //! A process that runs the `firmware-core` learner behind the `protocol` crate, as the car's
 //! Cortex-M4F would (DESIGN section 2).
 //!
-//! * [`flash`]: a file-backed emulation of two flash pages holding the learner's snapshot, with
-//!   a CRC and a generation counter, so that a torn or corrupt write never loses the last good
-//!   weights.
+//! * [`server`]: the car's controller over a link: a `protocol::car::CarNode` (the same state
+//!   machine the firmware runs), its flash, the poll loop.
+//! * [`cli`]: the `hil_mock` program: `serve`, `replay`, `bench-latency`.
+//! * [`flash`]: a file-backed emulation of two flash pages holding the car's persisted state
+//!   (learner snapshot and feedback dedupe window), with a CRC and a generation counter, so that
+//!   a torn or corrupt write never loses the last good weights.
 //! * [`transport`]: CAN links (in-memory, cannelloni over UDP, slcan over TCP or a serial port,
 //!   SocketCAN), fault injection and candump recording.
 
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod cli;
 pub mod flash;
+pub mod server;
 pub mod transport;

@@ -23,6 +23,8 @@
 //! * [`experiment`]: the run loop behind the [`experiment::CarLink`] trait, behaviour cloning,
 //!   per-step records, CSV and summary.
 //! * [`registry`]: built-in scenarios and experiments by name; parallel runs.
+//! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
+//!   controller (`hil_mock`, the firmware) over a CAN link.
 //! * [`households`]: the generator of the built-in household maps.
 //! * [`plot`]: drawings: the lattice (SVG), a scenario and a run's poses (PNG).
 //! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
@@ -40,6 +42,7 @@ pub mod map;
 pub mod path;
 pub mod plot;
 pub mod registry;
+pub mod remote;
 pub mod scenario;
 pub mod sim;
 pub mod synthetic;

@@ -109,6 +109,70 @@ struct RunArgs {
     /// Output folder (created if missing).
     #[arg(long, default_value = "out")]
     out: PathBuf,
+    /// Run the learner on the car's controller over this CAN link (udp://127.0.0.1:PORT,
+    /// slcan+tcp://127.0.0.1:PORT, slcan+serial:///dev/…, socketcan://IFACE; `hil_mock serve`
+    /// or the firmware at the other end). Without it, the learner runs in this process.
+    #[arg(long)]
+    link: Option<String>,
+    /// With --link: write every frame to this candump log.
+    #[arg(long, requires = "link")]
+    record: Option<PathBuf>,
+    /// With --link: disturb the frames the host sends (drop=P,corrupt=P,duplicate=P,
+    /// reorder=P,delay=P,max-delay-ms=N,seed=N).
+    #[arg(long, requires = "link")]
+    faults: Option<String>,
+    /// With --link: the frames the host sends, classic or fd.
+    #[arg(long, requires = "link", default_value = "fd", value_parser = parse_frame_mode)]
+    frame_mode: protocol::isotp::FrameMode,
+    /// With --link: wait this long for each answer before sending the request again (ms). The
+    /// default suits loopback and CAN; a slow serial line needs more.
+    #[arg(long, requires = "link", default_value_t = 20)]
+    try_timeout_ms: u64,
+}
+
+fn parse_frame_mode(s: &str) -> Result<protocol::isotp::FrameMode, String> {
+    match s {
+        "classic" => Ok(protocol::isotp::FrameMode::Classic),
+        "fd" => Ok(protocol::isotp::FrameMode::Fd),
+        _ => Err(format!("unknown frame mode '{s}', expected classic or fd")),
+    }
+}
+
+/// The learner's link for `run`: in process, or a `RemoteCar` over `--link`.
+fn car_link(args: &RunArgs, config: &RunConfig) -> Result<Box<dyn experiment::CarLink>> {
+    use hil_mock::transport::fault::{FaultConfig, FaultyLink};
+    use hil_mock::transport::record::RecordingLink;
+    use hil_mock::transport::{Link, LinkAddress};
+    let Some(link) = &args.link else {
+        return Ok(Box::new(InProcessLink::new(config.learner)?));
+    };
+    let address: LinkAddress = link.parse()?;
+    let faults = args
+        .faults
+        .as_deref()
+        .map(|f| f.parse::<FaultConfig>().map_err(anyhow::Error::msg))
+        .transpose()
+        .context("--faults")?;
+    let mut link = address.open(std::time::Duration::from_secs(30))?;
+    if let Some(path) = &args.record {
+        link = Box::new(RecordingLink::new(link, path, "can0")?);
+    }
+    if let Some(f) = faults {
+        link = Box::new(FaultyLink::new(link, f));
+    }
+    eprintln!(
+        "host-sim: the learner runs on the car, over {}",
+        link.describe()
+    );
+    let remote = host_sim::remote::RemoteCar::new(
+        link,
+        host_sim::remote::RemoteConfig {
+            mode: args.frame_mode,
+            try_timeout: std::time::Duration::from_millis(args.try_timeout_ms.max(1)),
+            ..Default::default()
+        },
+    );
+    Ok(Box::new(remote))
 }
 
 #[derive(clap::Args, Debug)]
@@ -198,9 +262,9 @@ fn run(args: &RunArgs) -> Result<()> {
         )
         .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
+    let mut link = car_link(args, &config)?;
     let started = Instant::now();
-    let mut link = InProcessLink::new(config.learner)?;
-    let report = experiment::run_with(&config, &mut link, &mut |r| {
+    let report = experiment::run_with(&config, &mut *link, &mut |r| {
         if r.step % 50 == 0 {
             bar.set_position(r.step as u64);
             bar.set_message(format!("{} corrections, {} laps", r.corrections, r.lap));

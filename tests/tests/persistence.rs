@@ -6,6 +6,8 @@ use firmware_core::{
     Round,
 };
 use hil_mock::flash::FlashStore;
+use protocol::car::Persisted;
+use protocol::delivery::FeedbackReceiver;
 
 fn table(k: usize) -> FeatureTable {
     let mut t = FeatureTable::ZERO;
@@ -37,7 +39,13 @@ fn restart_from_flash_continues_bit_identically() {
         teach(&mut straight, k);
         teach(&mut restarted, k);
         let (mut store, _) = FlashStore::open(&path).unwrap();
-        store.save(&restarted.snapshot()).unwrap();
+        store
+            .save(&Persisted {
+                session: Some(1),
+                snapshot: restarted.snapshot(),
+                receiver: FeedbackReceiver::new(),
+            })
+            .unwrap();
         drop(store); // "power off"
         let (_, restored) = FlashStore::open(&path).unwrap();
         restarted = restored.unwrap().learner;

@@ -52,6 +52,55 @@ impl FaultConfig {
     };
 }
 
+impl std::str::FromStr for FaultConfig {
+    type Err = String;
+
+    /// `drop=0.1,corrupt=0.01,duplicate=0.01,reorder=0.01,delay=0.01,max-delay-ms=5,seed=7`:
+    /// any subset, probabilities in `[0, 1]`; what is not given is 0 (`max-delay-ms` 0).
+    fn from_str(s: &str) -> Result<Self, String> {
+        let mut c = FaultConfig::NONE;
+        for item in s.split(',').map(str::trim).filter(|i| !i.is_empty()) {
+            let (key, value) = item
+                .split_once('=')
+                .ok_or_else(|| format!("fault '{item}': expected KEY=VALUE"))?;
+            let p = || -> Result<f64, String> {
+                let p: f64 = value
+                    .parse()
+                    .map_err(|_| format!("fault {key}: '{value}' is not a number"))?;
+                if (0.0..=1.0).contains(&p) {
+                    Ok(p)
+                } else {
+                    Err(format!("fault {key}: probability {value} is not in [0, 1]"))
+                }
+            };
+            let int = || -> Result<u64, String> {
+                value
+                    .parse()
+                    .map_err(|_| format!("fault {key}: '{value}' is not a whole number"))
+            };
+            match key {
+                "drop" => c.drop = p()?,
+                "corrupt" => c.corrupt = p()?,
+                "duplicate" => c.duplicate = p()?,
+                "reorder" => c.reorder = p()?,
+                "delay" => c.delay = p()?,
+                "max-delay-ms" => c.max_delay = Duration::from_millis(int()?.min(60_000)),
+                "seed" => c.seed = int()?,
+                _ => {
+                    return Err(format!(
+                        "unknown fault '{key}'; use drop, corrupt, duplicate, reorder, delay, \
+                         max-delay-ms, seed"
+                    ));
+                }
+            }
+        }
+        if c.delay > 0.0 && c.max_delay.is_zero() {
+            c.max_delay = Duration::from_millis(5);
+        }
+        Ok(c)
+    }
+}
+
 /// What the injector did so far.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct FaultStats {
@@ -206,6 +255,29 @@ impl<L: Link> Drop for FaultyLink<L> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fault_specs_parse_and_bad_ones_say_why() {
+        let c: FaultConfig = "drop=0.1,corrupt=0.01,duplicate=0.02,reorder=0.03,delay=0.04,seed=9"
+            .parse()
+            .unwrap();
+        assert_eq!(
+            (c.drop, c.corrupt, c.duplicate, c.reorder, c.delay, c.seed),
+            (0.1, 0.01, 0.02, 0.03, 0.04, 9)
+        );
+        assert_eq!(c.max_delay, Duration::from_millis(5), "default delay bound");
+        assert_eq!("".parse::<FaultConfig>().unwrap(), FaultConfig::NONE);
+        for (bad, why) in [
+            ("drop=2", "not in [0, 1]"),
+            ("drop=x", "not a number"),
+            ("seed=-1", "whole number"),
+            ("jitter=0.1", "unknown fault"),
+            ("drop", "KEY=VALUE"),
+        ] {
+            let e = bad.parse::<FaultConfig>().unwrap_err();
+            assert!(e.contains(why), "{bad}: {e}");
+        }
+    }
     use crate::transport::memory::MemoryLink;
     use protocol::can::CanId;
 

@@ -1,0 +1,392 @@
+//! The `hil_mock` command line: `serve`, `replay`, `bench-latency`.
+//!
+//! ```text
+//! hil_mock serve --link udp-listen://127.0.0.1:47000 --flash car.flash [--watchdog-ms 200]
+//!                [--record bus.log] [--faults drop=0.1,corrupt=0.01,seed=7] [--frame-mode fd]
+//! hil_mock replay bus.log --link udp://127.0.0.1:47000 [--realtime]
+//! hil_mock bench-latency [--link udp] [--count 10000]
+//! ```
+//!
+//! `serve` prints one line `listening on ADDRESS` on stdout once its link is open (with the real
+//! port when the address asked for port 0), then serves until killed or the link closes.
+//! [`main`] is the whole program, so another package can build the same binary (the end-to-end
+//! tests do, to kill it with SIGKILL).
+
+use std::ffi::OsString;
+use std::io::Write;
+use std::net::{SocketAddr, SocketAddrV4, TcpListener};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::{Parser, Subcommand, ValueEnum};
+use firmware_core::observation::Observation;
+use protocol::car::CarConfig;
+use protocol::isotp::FrameMode;
+use protocol::link::{Inbox, Received, transmit};
+use protocol::message::{Message, ObservationMessage};
+use protocol::stream::Direction;
+
+use crate::server::{LinkBus, Server, StartState};
+use crate::transport::fault::{FaultConfig, FaultyLink};
+use crate::transport::record::{RecordingLink, read_log, replay};
+use crate::transport::slcan::SlcanLink;
+use crate::transport::udp::UdpLink;
+use crate::transport::{Link, LinkAddress};
+
+/// The car's controller, stood in for.
+#[derive(Debug, Parser)]
+#[command(name = "hil_mock", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// CAN frame format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Mode {
+    /// Classic CAN (8-byte frames).
+    Classic,
+    /// CAN FD (64-byte frames).
+    Fd,
+}
+
+impl From<Mode> for FrameMode {
+    fn from(m: Mode) -> Self {
+        match m {
+            Mode::Classic => FrameMode::Classic,
+            Mode::Fd => FrameMode::Fd,
+        }
+    }
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Run the car's controller on a link.
+    Serve {
+        /// Where to listen or connect: udp-listen://127.0.0.1:PORT, udp://…,
+        /// slcan+tcp-listen://127.0.0.1:PORT, slcan+tcp://…, slcan+serial:///dev/…, socketcan://IFACE.
+        #[arg(long)]
+        link: String,
+        /// The flash file (two pages); restored on start. Without it nothing persists.
+        #[arg(long)]
+        flash: Option<PathBuf>,
+        /// Command a stop after this long without an observation (ms).
+        #[arg(long, default_value_t = 200)]
+        watchdog_ms: u32,
+        /// Write every frame to this candump log.
+        #[arg(long)]
+        record: Option<PathBuf>,
+        /// Disturb the frames the car sends: drop=P,corrupt=P,duplicate=P,reorder=P,delay=P,
+        /// max-delay-ms=N,seed=N.
+        #[arg(long)]
+        faults: Option<String>,
+        /// The frames the car transmits.
+        #[arg(long, value_enum, default_value_t = Mode::Fd)]
+        frame_mode: Mode,
+        /// How long a listening slcan link waits for its peer (s).
+        #[arg(long, default_value_t = 60)]
+        accept_timeout_s: u64,
+    },
+    /// Send the frames of a candump log through a link.
+    Replay {
+        /// The candump log.
+        log: PathBuf,
+        /// Where to send them.
+        #[arg(long)]
+        link: String,
+        /// Space the frames as they were logged.
+        #[arg(long)]
+        realtime: bool,
+    },
+    /// Observation → action round trips over UDP loopback to a server thread.
+    BenchLatency {
+        /// The transport (only udp).
+        #[arg(long, default_value = "udp")]
+        link: String,
+        /// Round trips measured.
+        #[arg(long, default_value_t = 10_000)]
+        count: u32,
+    },
+}
+
+/// The program: parses `std::env::args`, runs, prints errors, returns the exit code.
+pub fn main() -> ExitCode {
+    run_from(std::env::args_os())
+}
+
+/// [`main`] with explicit arguments (the first is the program name).
+pub fn run_from(args: impl IntoIterator<Item = OsString>) -> ExitCode {
+    let cli = match Cli::try_parse_from(args) {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::SUCCESS
+            };
+        }
+    };
+    match run(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("hil_mock: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(command: Command) -> Result<()> {
+    match command {
+        Command::Serve {
+            link,
+            flash,
+            watchdog_ms,
+            record,
+            faults,
+            frame_mode,
+            accept_timeout_s,
+        } => {
+            let address: LinkAddress = link.parse()?;
+            let faults = faults
+                .map(|f| f.parse::<FaultConfig>().map_err(anyhow::Error::msg))
+                .transpose()
+                .context("--faults")?;
+            let config = CarConfig {
+                watchdog_ms,
+                mode: frame_mode.into(),
+            };
+            let mut server = match &flash {
+                Some(path) => {
+                    let (server, state) = Server::with_flash(config, path)?;
+                    eprintln!("hil_mock: flash {}: {state}", path.display());
+                    server
+                }
+                None => {
+                    eprintln!("hil_mock: {}", StartState::NoFlash);
+                    Server::in_memory(config)
+                }
+            };
+            let link = open_serving(&address, Duration::from_secs(accept_timeout_s))?;
+            let link = wrap(link, record.as_deref(), faults)?;
+            serve(&mut server, link)
+        }
+        Command::Replay {
+            log,
+            link,
+            realtime,
+        } => {
+            let address: LinkAddress = link.parse()?;
+            let frames = read_log(&log)?;
+            let mut link = address.open(Duration::from_secs(10))?;
+            let n = replay(&frames, &mut *link, realtime)?;
+            println!("replayed {n} frames from {} to {address}", log.display());
+            Ok(())
+        }
+        Command::BenchLatency { link, count } => {
+            if link != "udp" {
+                bail!("bench-latency measures udp only, got --link {link}");
+            }
+            if count == 0 {
+                bail!("--count must be at least 1");
+            }
+            let r = bench_latency(count)?;
+            println!(
+                "{} observation → action round trips over UDP loopback (CAN FD frames, {} per observation): \
+                 p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
+                r.count, r.frames_per_observation, r.p50_us, r.p99_us, r.max_us
+            );
+            Ok(())
+        }
+    }
+}
+
+/// Opens a link for serving; a listening address on port 0 gets an ephemeral port. Prints
+/// `listening on ADDRESS` (or `connected to ADDRESS`) on stdout.
+fn open_serving(address: &LinkAddress, accept_timeout: Duration) -> Result<Box<dyn Link>> {
+    let say = |what: &str, a: &str| {
+        println!("{what} {a}");
+        let _ = std::io::stdout().flush();
+    };
+    Ok(match address {
+        LinkAddress::UdpListen(a) => {
+            let link = UdpLink::listen(*a)?;
+            let SocketAddr::V4(local) = link.local_addr()? else {
+                bail!("udp bound to a non-IPv4 address");
+            };
+            say("listening on", &LinkAddress::UdpListen(local).to_string());
+            Box::new(link)
+        }
+        LinkAddress::SlcanTcpListen(a) => {
+            let listener =
+                TcpListener::bind(a).with_context(|| format!("bind {a} for slcan over TCP"))?;
+            let local = match listener.local_addr() {
+                Ok(SocketAddr::V4(l)) => l,
+                _ => SocketAddrV4::new(*a.ip(), a.port()),
+            };
+            say(
+                "listening on",
+                &LinkAddress::SlcanTcpListen(local).to_string(),
+            );
+            Box::new(SlcanLink::accept_from(&listener, accept_timeout)?)
+        }
+        other => {
+            let link = other.open(accept_timeout)?;
+            say("connected to", &other.to_string());
+            link
+        }
+    })
+}
+
+fn wrap(
+    link: Box<dyn Link>,
+    record: Option<&std::path::Path>,
+    faults: Option<FaultConfig>,
+) -> Result<Box<dyn Link>> {
+    // Faults outermost: the log shows the frames as they went onto (and came off) the wire.
+    let link: Box<dyn Link> = match record {
+        Some(path) => Box::new(RecordingLink::new(link, path, "can0")?),
+        None => link,
+    };
+    Ok(match faults {
+        Some(f) => Box::new(FaultyLink::new(link, f)),
+        None => link,
+    })
+}
+
+fn serve(server: &mut Server, mut link: Box<dyn Link>) -> Result<()> {
+    let stop = AtomicBool::new(false);
+    server
+        .run(&mut *link, &stop)
+        .with_context(|| format!("serving on {}", link.describe()))?;
+    Ok(())
+}
+
+/// Round-trip figures of [`bench_latency`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Latency {
+    /// Round trips measured.
+    pub count: u32,
+    /// CAN FD frames per observation.
+    pub frames_per_observation: usize,
+    /// Median (µs).
+    pub p50_us: f64,
+    /// 99th percentile (µs).
+    pub p99_us: f64,
+    /// Largest (µs).
+    pub max_us: f64,
+}
+
+/// Starts a server thread on UDP 127.0.0.1 (ephemeral port) and measures `count` observation →
+/// action round trips (after 100 unmeasured ones), CAN FD frames both ways.
+pub fn bench_latency(count: u32) -> Result<Latency> {
+    let mut car_link = UdpLink::listen(SocketAddrV4::new(std::net::Ipv4Addr::LOCALHOST, 0))?;
+    let SocketAddr::V4(car_addr) = car_link.local_addr()? else {
+        bail!("udp bound to a non-IPv4 address");
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    let server = std::thread::spawn(move || {
+        let mut server = Server::in_memory(CarConfig {
+            mode: FrameMode::Fd,
+            ..CarConfig::default()
+        });
+        server.run(&mut car_link, &flag)
+    });
+    let mut host = UdpLink::connect(car_addr)?;
+    let mut inbox = Inbox::new(Direction::CarToHost);
+    let mut samples = Vec::with_capacity(count as usize);
+    let mut frames_per_observation = 0;
+    let warmup = 100;
+    for tick in 0..count + warmup {
+        let mut obs = Observation::open_space();
+        obs.scan.ranges[(tick % 64) as usize] = 2.0 + (tick % 7) as f32 * 0.5;
+        let msg = Message::Observation(ObservationMessage {
+            tick,
+            observation: obs,
+        });
+        let t0 = Instant::now();
+        frames_per_observation = transmit(
+            &mut LinkBus(&mut host),
+            &msg,
+            Direction::HostToCar,
+            FrameMode::Fd,
+        )
+        .map_err(|e| anyhow::anyhow!("send: {e}"))?;
+        let deadline = t0 + Duration::from_secs(5);
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            if left.is_zero() {
+                bail!("no action for tick {tick} within 5 s");
+            }
+            let Some(f) = host.recv(left)? else { continue };
+            if let Received::Message(Message::Action(a)) = inbox.feed(&f, 0)
+                && a.tick == tick
+            {
+                break;
+            }
+        }
+        if tick >= warmup {
+            samples.push(t0.elapsed().as_secs_f64() * 1e6);
+        }
+    }
+    stop.store(true, Ordering::Relaxed);
+    server
+        .join()
+        .map_err(|_| anyhow::anyhow!("the server thread panicked"))??;
+    samples.sort_by(f64::total_cmp);
+    let at = |q: f64| samples[((samples.len() as f64 * q) as usize).min(samples.len() - 1)];
+    Ok(Latency {
+        count,
+        frames_per_observation,
+        p50_us: at(0.50),
+        p99_us: at(0.99),
+        max_us: samples[samples.len() - 1],
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn code(args: &[&str]) -> ExitCode {
+        run_from(args.iter().map(OsString::from))
+    }
+
+    #[test]
+    fn bad_arguments_exit_non_zero_with_a_message() {
+        assert_eq!(code(&["hil_mock", "serve"]), ExitCode::from(2));
+        assert_eq!(code(&["hil_mock", "fly"]), ExitCode::from(2));
+        for args in [
+            ["hil_mock", "serve", "--link", "udp-listen://10.0.0.1:4000"],
+            ["hil_mock", "serve", "--link", "carrier-pigeon://x"],
+            ["hil_mock", "bench-latency", "--link", "slcan"],
+            ["hil_mock", "replay", "/nonexistent/bus.log", "--link"],
+        ] {
+            assert_ne!(code(&args), ExitCode::SUCCESS, "{args:?}");
+        }
+        assert_eq!(
+            code(&[
+                "hil_mock",
+                "serve",
+                "--link",
+                "udp-listen://127.0.0.1:0",
+                "--faults",
+                "drop=7"
+            ]),
+            ExitCode::FAILURE
+        );
+    }
+
+    #[test]
+    fn the_latency_bench_runs() {
+        let r = bench_latency(50).unwrap();
+        assert_eq!(r.count, 50);
+        assert!(r.frames_per_observation >= 5, "{r:?}");
+        assert!(r.p50_us <= r.p99_us && r.p99_us <= r.max_us);
+    }
+}
