@@ -55,7 +55,7 @@ fn image() -> PathBuf {
 
 /// Starts QEMU with UART0 on a TCP server of 127.0.0.1 at a port QEMU picks (port 0, no race);
 /// returns it and the port, read from QEMU's "waiting for connection" line.
-fn start_qemu() -> Result<(Qemu, u16)> {
+fn start_qemu(mode: &str) -> Result<(Qemu, u16)> {
     let image = image();
     if !image.is_file() {
         bail!(
@@ -69,7 +69,10 @@ fn start_qemu() -> Result<(Qemu, u16)> {
         // nodelay: every byte the UART sends goes out at once (Nagle's algorithm would hold the
         // small writes back for the peer's delayed acks, tens of ms per answer).
         .args(["-serial", "tcp:127.0.0.1:0,server,nodelay=on"])
-        .args(["-semihosting-config", "enable=on,target=native"])
+        .arg("-semihosting-config")
+        .arg(format!(
+            "enable=on,target=native,arg=car-firmware,arg={mode}"
+        ))
         .arg("-kernel")
         .arg(&image)
         .stdin(Stdio::null())
@@ -118,7 +121,7 @@ fn qemu_firmware_run_is_bit_identical_to_the_in_process_run() -> Result<()> {
     let here = run(&config)?;
     assert!(here.corrections() > 0, "the run must exercise learning");
 
-    let (_qemu, port) = start_qemu()?;
+    let (_qemu, port) = start_qemu("serve")?;
     let addr = SocketAddrV4::new(Ipv4Addr::LOCALHOST, port);
     let link = SlcanLink::connect_tcp(addr, Duration::from_secs(30))?;
     // Classic CAN both ways, as a Lawicel adapter carries; QEMU's UART moves about 25 KB/s, so
@@ -149,6 +152,44 @@ fn qemu_firmware_run_is_bit_identical_to_the_in_process_run() -> Result<()> {
     assert_eq!(
         tests::weight_bits(&there.final_snapshot.state.average),
         tests::weight_bits(&here.final_snapshot.state.average)
+    );
+    Ok(())
+}
+
+/// The image's slcan receiver survives what a serial line can bring: adapter commands, malformed
+/// and overlong lines, stray bytes; the `echo` mode answers each frame with the bus's counters.
+#[test]
+#[ignore = "needs qemu-system-arm and the firmware image; .ci/run runs it"]
+fn qemu_firmware_slcan_survives_garbage() -> Result<()> {
+    use std::io::{Read, Write};
+    let (_qemu, port) = start_qemu("echo")?;
+    let mut s = std::net::TcpStream::connect((Ipv4Addr::LOCALHOST, port))?;
+    s.set_read_timeout(Some(Duration::from_secs(30)))?;
+    let mut input = Vec::new();
+    input.extend_from_slice(b"C\rS8\rO\r"); // a host opening the adapter: three OKs
+    input.extend_from_slice(b"t12\rt1239\rtXYZ0\rt1\xff30\r"); // four malformed lines
+    input.extend_from_slice(b"\0\xff\r"); // a stray "command" 0x00: BEL
+    input.extend_from_slice(&[b'7'; 1000]); // an overlong line, then its end
+    input.extend_from_slice(b"\rq\r\x07z\r"); // an unknown command, BEL, a transmit ack
+    input.extend_from_slice(b"t1232AB01\r"); // and a frame
+    s.write_all(&input)?;
+    let mut got = Vec::new();
+    let mut buf = [0u8; 256];
+    while !got.ends_with(b"\r") || !got.contains(&b't') {
+        let n = s.read(&mut buf)?;
+        if n == 0 {
+            bail!(
+                "QEMU closed the line; got {:?}",
+                String::from_utf8_lossy(&got)
+            );
+        }
+        got.extend_from_slice(&buf[..n]);
+    }
+    // Replies: \r to C, S8, O; BEL to 0x00 and to q; then the echo of the frame on id 0x124
+    // with the counters frames 1, malformed 4, overlong 1, commands 5 (little-endian u16 each).
+    assert_eq!(
+        String::from_utf8_lossy(&got),
+        "\r\r\r\x07\x07t12480100040001000500\r"
     );
     Ok(())
 }
