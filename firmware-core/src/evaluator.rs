@@ -170,13 +170,15 @@ pub const SQRT_RELATIVE_ERROR: f32 = 3.0e-7;
 /// [`SQRT_RELATIVE_ERROR`]; the same operations, so the same bits, on the host and the car.
 #[inline]
 pub fn sqrt(x: f32) -> f32 {
-    if x.is_nan() || x < f32::MIN_POSITIVE {
-        // 0, subnormals (never produced by the geometry here) and NaN take the exact path.
-        return libm::sqrtf(x);
+    // One float comparison, false for NaN: LLVM turns `x.is_nan() || x < MIN_POSITIVE` into an
+    // integer classification of the bits, about 15 instructions more on a Cortex-M4.
+    if x >= f32::MIN_POSITIVE {
+        let mut y = f32::from_bits(0x1fbb_4f2e_u32.wrapping_add(x.to_bits() >> 1));
+        y = 0.5 * (y + x / y);
+        return 0.5 * (y + x / y);
     }
-    let mut y = f32::from_bits(0x1fbb_4f2e_u32.wrapping_add(x.to_bits() >> 1));
-    y = 0.5 * (y + x / y);
-    0.5 * (y + x / y)
+    // 0, subnormals (never produced by the geometry here), negatives and NaN take the exact path.
+    libm::sqrtf(x)
 }
 
 impl Evaluator {
