@@ -287,18 +287,23 @@ impl Evaluator {
             }
             let [sx, sy] = SAMPLE_POINTS[u];
             let mut best = clip2;
-            for (mut beams, base) in [(cand_lo, 0), (cand_hi, 32)] {
+            // The two halves of the candidate mask, written out: a loop over a two-element array
+            // of (mask, base) pairs costs stack traffic per sample on a Cortex-M4.
+            let points = &self.points;
+            let mut nearest = |mut beams: u32, base: usize| {
                 while beams != 0 {
                     let j = (beams.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
                     beams &= beams - 1;
-                    let dx = self.points[j][0] - sx;
-                    let dy = self.points[j][1] - sy;
+                    let dx = points[j][0] - sx;
+                    let dy = points[j][1] - sy;
                     let d2 = dx * dx + dy * dy;
                     if d2 < best {
                         best = d2;
                     }
                 }
-            }
+            };
+            nearest(cand_lo, 0);
+            nearest(cand_hi, 32);
             self.clearance[u & (SCRATCH - 1)] = if best < clip2 {
                 sqrt(best).min(OBSTACLE_CLIP)
             } else {
