@@ -21,7 +21,7 @@
 //!
 //! The measurement modes print their result on the semihosting console and exit with status 0.
 //! Reading the command line is a semihosting call, so the image expects a debugger or QEMU's
-//! `-semihosting-config enable=on`; without one the call faults.
+//! `-semihosting-config enable=on`; without one the call raises a HardFault and the image stops.
 //! No allocator is linked: the node (and the bench agent) live in `ConstStaticCell`s, built at
 //! compile time and counted by the linker.
 
