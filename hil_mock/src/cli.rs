@@ -260,10 +260,15 @@ fn wrap(
 
 fn serve(server: &mut Server, mut link: Box<dyn Link>) -> Result<()> {
     let stop = AtomicBool::new(false);
-    server
-        .run(&mut *link, &stop)
-        .with_context(|| format!("serving on {}", link.describe()))?;
-    Ok(())
+    match server.run(&mut *link, &stop) {
+        Ok(()) => Ok(()),
+        // The host hung up (a TCP peer closed): the end of a session, not a failure.
+        Err(crate::transport::LinkError::Closed(why)) => {
+            eprintln!("hil_mock: link closed ({why}); {:?}", server.node().stats());
+            Ok(())
+        }
+        Err(e) => Err(anyhow::Error::new(e).context(format!("serving on {}", link.describe()))),
+    }
 }
 
 /// Round-trip figures of [`bench_latency`].
@@ -379,6 +384,41 @@ mod tests {
                 "drop=7"
             ]),
             ExitCode::FAILURE
+        );
+    }
+
+    #[test]
+    fn replay_sends_a_log_s_frames() {
+        use protocol::can::{CanFrame, CanId};
+        let dir = tempfile::tempdir().unwrap();
+        let log = dir.path().join("bus.log");
+        std::fs::write(
+            &log,
+            "(1700000000.000000) can0 104#0102\n(1700000000.001000) can0 10A##1AABB\n",
+        )
+        .unwrap();
+        let mut car = UdpLink::listen(SocketAddrV4::new(std::net::Ipv4Addr::LOCALHOST, 0)).unwrap();
+        let SocketAddr::V4(addr) = car.local_addr().unwrap() else {
+            unreachable!()
+        };
+        let args = [
+            "hil_mock".to_string(),
+            "replay".into(),
+            log.display().to_string(),
+            "--link".into(),
+            format!("udp://{addr}"),
+        ];
+        assert_eq!(run_from(args.iter().map(OsString::from)), ExitCode::SUCCESS);
+        let id = |i| CanId::standard(i).unwrap();
+        let got: Vec<_> = (0..2)
+            .map(|_| car.recv(Duration::from_secs(10)).unwrap().unwrap())
+            .collect();
+        assert_eq!(
+            got,
+            [
+                CanFrame::new(id(0x104), &[1, 2]).unwrap(),
+                CanFrame::new_fd(id(0x10A), &[0xAA, 0xBB]).unwrap()
+            ]
         );
     }
 

@@ -385,3 +385,55 @@ impl<L: Link> CarLink for RemoteCar<L> {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use hil_mock::transport::memory::MemoryLink;
+    use protocol::message::ActionCommand;
+
+    /// A car that answers every observation first with a watchdog-like stop, then with its
+    /// real action.
+    fn stubborn_car(mut link: MemoryLink) {
+        let mut inbox = Inbox::new(Direction::HostToCar);
+        let mut agent = firmware_core::agent::Agent::new(firmware_core::Learner::new(
+            firmware_core::LearnerParams::default().check().unwrap(),
+        ));
+        while let Ok(got) = link.recv(Duration::from_secs(5)) {
+            let Some(frame) = got else { return };
+            if let Received::Message(Message::Observation(o)) = inbox.feed(&frame, 0) {
+                let d = agent.act(o.tick, &o.observation).unwrap();
+                for answer in [ActionCommand::stop(o.tick), ActionCommand::from(&d)] {
+                    let msg = Message::Action(answer);
+                    if transmit(
+                        &mut LinkBus(&mut link),
+                        &msg,
+                        Direction::CarToHost,
+                        FrameMode::Fd,
+                    )
+                    .is_err()
+                    {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_stop_for_an_observation_with_free_trajectories_is_the_watchdog_s() {
+        let (host, car) = MemoryLink::pair();
+        let handle = std::thread::spawn(move || stubborn_car(car));
+        let mut remote = RemoteCar::new(host, RemoteConfig::default());
+        let d = remote.act(3, &Observation::open_space()).unwrap();
+        assert!(d.action.is_some() && !d.allowed.is_empty());
+        assert_eq!(remote.stats().watchdog_stops, 1);
+        // Everything blocked: the stop is the answer.
+        let mut walled = Observation::open_space();
+        walled.scan.ranges = [0.1; firmware_core::observation::SCAN_BEAMS];
+        let d = remote.act(4, &walled).unwrap();
+        assert_eq!((d.action, d.allowed.is_empty()), (None, true));
+        drop(remote);
+        handle.join().unwrap();
+    }
+}

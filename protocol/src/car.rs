@@ -5,7 +5,9 @@
 //! (dedupe window), the host's configuration session, the watchdog and counters. The caller owns
 //! the bus, the clock and the flash: it hands every received frame to [`CarNode::on_frame`] and
 //! calls [`CarNode::poll`] often (every few milliseconds) for the watchdog and the reassembly
-//! timeouts. No heap, no clock, no `unsafe`; the agent makes a node about 10 KiB.
+//! timeouts. No heap, no clock, no `unsafe`. A node is about 11.5 KiB (the agent and the
+//! inbox's six reassembly buffers); [`CarNode::new`] is a `const fn` and [`CarNode::load`]
+//! restores in place, so firmware can keep it in a `static`.
 //!
 //! | received | the car does | answers |
 //! |---|---|---|
@@ -167,6 +169,11 @@ impl CarStats {
     };
 }
 
+/// Counters saturate instead of overflowing (a car may run for years).
+fn bump(counter: &mut u32) {
+    *counter = counter.saturating_add(1);
+}
+
 /// Why a node could not be restored.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[non_exhaustive]
@@ -227,6 +234,22 @@ impl CarNode {
         node.session = state.session;
         node.receiver = state.receiver.clone();
         Ok(node)
+    }
+
+    /// [`CarNode::restore`] in place, for a node that lives in a `static` (a node is about
+    /// 11.5 KiB; this moves none of it). Counters and configuration are kept; on `Err` nothing
+    /// changed.
+    pub fn load(&mut self, state: &Persisted) -> Result<(), RestoreError> {
+        let learner = Learner::restore(&state.snapshot).map_err(RestoreError::Snapshot)?;
+        self.agent.set_learner(learner);
+        self.agent.forget_ticks();
+        self.inbox.reset();
+        self.receiver = state.receiver.clone();
+        self.session = state.session;
+        self.watched = None;
+        self.stopped = true;
+        self.dirty = false;
+        Ok(())
     }
 
     /// The state to persist now.
@@ -293,7 +316,7 @@ impl CarNode {
             && now_ms.wrapping_sub(since) >= self.config.watchdog_ms
         {
             self.stopped = true;
-            self.stats.watchdog_stops += 1;
+            bump(&mut self.stats.watchdog_stops);
             self.send(bus, &Message::Action(ActionCommand::stop(tick)))?;
         }
         Ok(())
@@ -334,10 +357,10 @@ impl CarNode {
         now_ms: u32,
         bus: &mut B,
     ) -> Result<(), B::Error> {
-        self.stats.observations += 1;
+        bump(&mut self.stats.observations);
         match self.agent.act(o.tick, &o.observation) {
             Ok(decision) => {
-                self.stats.actions += 1;
+                bump(&mut self.stats.actions);
                 self.stopped = decision.action.is_none();
                 self.watched = Some((o.tick, now_ms));
                 self.send(bus, &Message::Action(ActionCommand::from(&decision)))
@@ -363,11 +386,11 @@ impl CarNode {
         });
         match (fresh, reply) {
             (true, Reply::Ack(_)) => {
-                self.stats.feedback_applied += 1;
+                bump(&mut self.stats.feedback_applied);
                 self.dirty = true;
             }
-            (true, Reply::Nack(_)) => self.stats.feedback_refused += 1,
-            (false, _) => self.stats.feedback_duplicates += 1,
+            (true, Reply::Nack(_)) => bump(&mut self.stats.feedback_refused),
+            (false, _) => bump(&mut self.stats.feedback_duplicates),
         }
         // An ack means "in flash": write first (again, if an earlier write failed).
         if matches!(reply, Reply::Ack(_)) && !self.commit(store) {
@@ -411,7 +434,7 @@ impl CarNode {
                 true
             }
             Err(_) => {
-                self.stats.persist_failures += 1;
+                bump(&mut self.stats.persist_failures);
                 false
             }
         }
@@ -432,7 +455,7 @@ impl CarNode {
         tick: Option<u32>,
         bus: &mut B,
     ) -> Result<(), B::Error> {
-        self.stats.errors += 1;
+        bump(&mut self.stats.errors);
         self.send(bus, &Message::Error(ErrorReport { code, tick }))
     }
 
@@ -442,7 +465,7 @@ impl CarNode {
             Err(TransmitError::Bus { error, .. }) => Err(error),
             // Every message the node sends travels car → host and fits the buffers.
             Err(_) => {
-                self.stats.errors += 1;
+                bump(&mut self.stats.errors);
                 Ok(())
             }
         }
@@ -733,6 +756,26 @@ mod tests {
         let bytes = crate::seal(&state, &mut buf).unwrap();
         assert!(bytes.len() <= PERSISTED_MAX_SIZE);
         assert_eq!(crate::open::<Persisted>(bytes).unwrap(), state);
+    }
+
+    #[test]
+    fn load_restores_in_place() {
+        let mut b = Bench::new(node());
+        b.observe(1, 0);
+        b.send(&feedback(0, 1, 3), 1);
+        let state = b.flash.stored.clone().unwrap();
+        let mut other = node();
+        other.load(&state).unwrap();
+        assert_eq!(other.persisted(), state);
+        assert!(other.stopped());
+        let mut bad = state.clone();
+        bad.snapshot.state.average[0] = f32::INFINITY;
+        assert!(other.load(&bad).is_err());
+        assert_eq!(other.persisted(), state, "unchanged on Err");
+        // The loaded node dedupes like the restored one.
+        let mut b2 = Bench::new(other);
+        assert_eq!(b2.send(&feedback(0, 1, 3), 0), [ack(0)]);
+        assert_eq!(b2.car.stats().feedback_applied, 0);
     }
 
     #[test]

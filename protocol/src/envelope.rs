@@ -24,7 +24,7 @@
 //! let mut buf = [0u8; 8];
 //! let sealed = protocol::seal(&300u16, &mut buf).unwrap();
 //! let env = Envelope::new_checked(sealed).unwrap();
-//! assert_eq!((env.version(), env.payload()), (1, &[0xAC, 0x02][..]));
+//! assert_eq!((env.version(), env.payload()), (2, &[0xAC, 0x02][..]));
 //! assert_eq!(Envelope::new_checked(&sealed[..2]).unwrap_err(), EnvelopeError::Truncated);
 //! ```
 
@@ -33,7 +33,10 @@ use core::fmt;
 use serde::{Deserialize, Serialize};
 
 /// The protocol version this build speaks. A frame of another version is refused.
-pub const PROTOCOL_VERSION: u8 = 1;
+///
+/// History: 1, the first; 2, the action command carries the collision mask, the configure
+/// carries a session and a learner snapshot, the weights request is appended.
+pub const PROTOCOL_VERSION: u8 = 2;
 
 /// Bytes the envelope adds to a payload: the version byte and the CRC.
 pub const ENVELOPE_OVERHEAD: usize = 3;
@@ -192,9 +195,9 @@ mod tests {
         });
         let mut buf = [0u8; 16];
         let bytes = seal(&fb, &mut buf).unwrap();
-        // version 1, variant 0 (Action), action 17, then the CRC.
-        let crc = CRC16.checksum(&[1, 0, 17]).to_le_bytes();
-        assert_eq!(bytes, &[1, 0, 17, crc[0], crc[1]]);
+        // version 2, variant 0 (Action), action 17, then the CRC (computed independently).
+        assert_eq!(CRC16.checksum(&[2, 0, 17]).to_le_bytes(), [0xEC, 0xA0]);
+        assert_eq!(bytes, &[2, 0, 17, 0xEC, 0xA0]);
         assert_eq!(
             CRC16.checksum(b"123456789"),
             0x29B1,
@@ -228,11 +231,11 @@ mod tests {
         let mut buf = [0u8; 8];
         let bytes = seal(&5u32, &mut buf).unwrap().to_vec();
         let mut other = bytes.clone();
-        other[0] = 2;
+        other[0] = 1;
         let crc = CRC16.checksum(&other[..other.len() - 2]).to_le_bytes();
         let n = other.len();
         other[n - 2..].copy_from_slice(&crc);
-        assert_eq!(open::<u32>(&other), Err(EnvelopeError::Version(2)));
+        assert_eq!(open::<u32>(&other), Err(EnvelopeError::Version(1)));
         assert_eq!(open::<u8>(&bytes), Ok(5));
         assert_eq!(
             seal(&[0u8; 10], &mut buf),

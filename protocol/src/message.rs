@@ -778,7 +778,7 @@ mod tests {
         assert_eq!(Message::parse(bytes), Ok(value));
     }
 
-    const PROTOCOL_VERSION_BYTE: u8 = 1;
+    const PROTOCOL_VERSION_BYTE: u8 = 2;
 
     fn f(x: f32) -> [u8; 4] {
         x.to_le_bytes()
@@ -1160,31 +1160,31 @@ mod tests {
             Message::parse(&crc_bad),
             Err(DecodeError::Envelope(EnvelopeError::Crc))
         );
-        // Re-seal by hand with version 2, then with a trailing byte, then an unknown variant.
+        // Re-seal by hand with version 1, then with a trailing byte, then an unknown variant.
         let reseal = |body: &[u8]| {
             let mut v = body.to_vec();
             let crc = CRC16.checksum(body).to_le_bytes();
             v.extend_from_slice(&crc);
             v
         };
-        let e = Message::parse(&reseal(&[2, 8])).unwrap_err();
-        assert_eq!(e, DecodeError::Envelope(EnvelopeError::Version(2)));
+        let e = Message::parse(&reseal(&[1, 8])).unwrap_err();
+        assert_eq!(e, DecodeError::Envelope(EnvelopeError::Version(1)));
         assert_eq!(e.code(), ErrorCode::Version);
         assert_eq!(
-            Message::parse(&reseal(&[1, 8, 0])),
+            Message::parse(&reseal(&[2, 8, 0])),
             Err(DecodeError::Envelope(EnvelopeError::TrailingBytes))
         );
         assert_eq!(
-            Message::parse(&reseal(&[1, 11])),
+            Message::parse(&reseal(&[2, 11])),
             Err(DecodeError::Envelope(EnvelopeError::Decode))
         );
         // An action index of 64 is not an action.
         assert_eq!(
-            Message::parse(&reseal(&[1, 2, 7, 200, 1, 0, 64])),
+            Message::parse(&reseal(&[2, 2, 7, 200, 1, 0, 64])),
             Err(DecodeError::Envelope(EnvelopeError::Decode))
         );
         assert_eq!(
-            Message::parse(&reseal(&[1, 2, 7, 200, 1, 0, 63])).map(|m| m.kind()),
+            Message::parse(&reseal(&[2, 2, 7, 200, 1, 0, 63])).map(|m| m.kind()),
             Ok(MessageKind::Feedback)
         );
     }

@@ -140,6 +140,12 @@ pub fn decode_packet(bytes: &[u8], out: &mut Vec<CanFrame>) -> Result<u8, LinkEr
     Ok(seq)
 }
 
+/// Waits up to this long are polled (see `recv`).
+const SHORT_WAIT: Duration = Duration::from_millis(25);
+
+/// Pause between two polls of a short wait.
+const NAP: Duration = Duration::from_micros(50);
+
 /// A cannelloni UDP link on 127.0.0.1.
 #[derive(Debug)]
 pub struct UdpLink {
@@ -211,17 +217,21 @@ impl Link for UdpLink {
                 return Ok(Some(f));
             }
             let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() {
-                self.socket
-                    .set_nonblocking(true)
-                    .map_err(|e| LinkError::io("udp nonblocking", e))?;
-            } else {
+            // The kernel rounds a socket's receive timeout up to its timer tick (up to 10 ms),
+            // far beyond a short wait: a short wait polls without blocking and naps between
+            // polls instead; a long one blocks, ending a margin early, and polls the rest.
+            let blocking = left > SHORT_WAIT;
+            if blocking {
                 self.socket
                     .set_nonblocking(false)
                     .map_err(|e| LinkError::io("udp blocking", e))?;
                 self.socket
-                    .set_read_timeout(Some(left))
+                    .set_read_timeout(Some(left - SHORT_WAIT / 2))
                     .map_err(|e| LinkError::io("udp timeout", e))?;
+            } else {
+                self.socket
+                    .set_nonblocking(true)
+                    .map_err(|e| LinkError::io("udp nonblocking", e))?;
             }
             let got = if self.connected {
                 self.socket.recv(&mut self.buf).map(|n| (n, None))
@@ -240,8 +250,12 @@ impl Link for UdpLink {
                     self.pending.extend(frames);
                 }
                 Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
-                    if Instant::now() >= deadline {
+                    let now = Instant::now();
+                    if now >= deadline {
                         return Ok(None);
+                    }
+                    if !blocking {
+                        std::thread::sleep(NAP.min(deadline - now));
                     }
                 }
                 // A previous send to a closed port on loopback comes back as ECONNREFUSED.

@@ -1,0 +1,558 @@
+//! The learner over a CAN link: `host-sim`'s experiment with the learner in `hil_mock`
+//! (a `protocol::car::CarNode`) behind real transports, faults, restarts and the watchdog.
+//!
+//! Every run is compared with the same run in process: per-step CSV bytes and the final weights'
+//! bit patterns must be identical. Sockets are on 127.0.0.1, ports ephemeral. No assertion is
+//! about time: waits are generous upper bounds on things that must happen.
+
+use std::io::{BufRead, BufReader};
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use firmware_core::observation::Observation;
+use hil_mock::flash::{FlashStore, PAGE_SIZE};
+use hil_mock::server::{LinkBus, Server};
+use hil_mock::transport::fault::{FaultConfig, FaultyLink};
+use hil_mock::transport::memory::MemoryLink;
+use hil_mock::transport::record::{RecordingLink, read_log};
+use hil_mock::transport::slcan::SlcanLink;
+use hil_mock::transport::udp::UdpLink;
+use hil_mock::transport::{Link, LinkAddress};
+use host_sim::experiment::{self, CarLink, RunConfig, RunReport};
+use host_sim::remote::{RemoteCar, RemoteConfig, RemoteStats};
+use protocol::car::{CarConfig, CarStats, Persisted};
+use protocol::isotp::FrameMode;
+use protocol::link::{Inbox, Received, transmit};
+use protocol::message::{ActionCommand, Message, ObservationMessage};
+use protocol::stream::Direction;
+
+const SEED: u64 = 11;
+
+fn config(steps: u32) -> RunConfig {
+    let scenario = host_sim::registry::load_scenario("doors").unwrap();
+    RunConfig {
+        steps,
+        seed: SEED,
+        ..RunConfig::new(Arc::new(scenario))
+    }
+}
+
+fn remote_config(mode: FrameMode) -> RemoteConfig {
+    RemoteConfig {
+        mode,
+        try_timeout: Duration::from_millis(3),
+        deadline: Duration::from_secs(30),
+        session: Some(40),
+    }
+}
+
+/// A `CarNode` serving `link` in a thread until stopped; gives back its counters.
+struct ServerThread {
+    stop: Arc<AtomicBool>,
+    handle: JoinHandle<CarStats>,
+}
+
+impl ServerThread {
+    fn spawn<L: Link + 'static>(open: impl FnOnce() -> L + Send + 'static, car: CarConfig) -> Self {
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let handle = std::thread::spawn(move || {
+            let mut link = open();
+            let mut server = Server::in_memory(car);
+            match server.run(&mut link, &flag) {
+                // The host hung up (a memory link's other end dropped): the end of the test.
+                Ok(()) | Err(hil_mock::transport::LinkError::Closed(_)) => {}
+                Err(e) => panic!("the server's link: {e}"),
+            }
+            server.node().stats()
+        });
+        Self { stop, handle }
+    }
+
+    fn stop(self) -> CarStats {
+        self.stop.store(true, Ordering::Relaxed);
+        self.handle.join().expect("the server thread")
+    }
+}
+
+fn car(mode: FrameMode) -> CarConfig {
+    CarConfig {
+        mode,
+        ..CarConfig::default()
+    }
+}
+
+fn remote_run<L: Link>(config: &RunConfig, link: L, mode: FrameMode) -> (RunReport, RemoteStats) {
+    let mut remote = RemoteCar::new(link, remote_config(mode));
+    let report = experiment::run_with(config, &mut remote, &mut |_| {}).unwrap();
+    (report, remote.stats())
+}
+
+#[track_caller]
+fn assert_same(a: &RunReport, b: &RunReport, what: &str) {
+    assert!(
+        a.csv_bytes() == b.csv_bytes(),
+        "{what}: per-step CSV differs"
+    );
+    assert_eq!(
+        tests::weight_bits(&a.final_snapshot.state.iterate),
+        tests::weight_bits(&b.final_snapshot.state.iterate),
+        "{what}: final iterate"
+    );
+    assert_eq!(
+        tests::weight_bits(&a.final_snapshot.state.average),
+        tests::weight_bits(&b.final_snapshot.state.average),
+        "{what}: final weights"
+    );
+    assert_eq!(a.final_snapshot, b.final_snapshot, "{what}: final snapshot");
+}
+
+fn udp_pair() -> (UdpLink, UdpLink) {
+    let car = UdpLink::listen(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0)).unwrap();
+    let SocketAddr::V4(addr) = car.local_addr().unwrap() else {
+        unreachable!("bound on 127.0.0.1")
+    };
+    let host = UdpLink::connect(addr).unwrap();
+    (host, car)
+}
+
+#[test]
+fn same_seed_same_bits_in_process_over_memory_udp_and_slcan() {
+    let config = config(600);
+    let local = experiment::run(&config).unwrap();
+    assert!(local.corrections() > 10, "the run learns");
+
+    let (host, car_end) = MemoryLink::pair();
+    let server = ServerThread::spawn(move || car_end, car(FrameMode::Fd));
+    let (memory, _) = remote_run(&config, host, FrameMode::Fd);
+    let stats = server.stop();
+    assert_same(&local, &memory, "memory link");
+    assert_eq!(stats.feedback_applied, local.corrections());
+
+    // UDP, with the host's side recorded in the candump format.
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("host.log");
+    let (host, car_end) = udp_pair();
+    let server = ServerThread::spawn(move || car_end, car(FrameMode::Fd));
+    let host = RecordingLink::new(host, &log, "can0").unwrap();
+    let (udp, _) = remote_run(&config, host, FrameMode::Fd);
+    let stats = server.stop();
+    assert_same(&local, &udp, "cannelloni over UDP");
+    assert_eq!(stats.feedback_applied, local.corrections());
+    let frames = read_log(&log).unwrap();
+    let on = |id: u16| {
+        frames
+            .iter()
+            .filter(|l| l.frame.id().raw() == id as u32)
+            .count()
+    };
+    // Every observation (5 FD frames each in open space, more with objects) and its action.
+    assert!(on(0x104) >= 5 * 600, "{}", on(0x104));
+    // At least one action frame per tick and one ack per feedback (more when a slow answer
+    // made the host ask again).
+    assert!(on(0x101) >= 600, "{}", on(0x101));
+    assert!(on(0x107) >= local.corrections() as usize);
+
+    // slcan over TCP, classic CAN frames (56 per observation) both ways.
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let SocketAddr::V4(addr) = listener.local_addr().unwrap() else {
+        unreachable!("bound on 127.0.0.1")
+    };
+    let server = ServerThread::spawn(
+        move || SlcanLink::accept_from(&listener, Duration::from_secs(30)).unwrap(),
+        car(FrameMode::Classic),
+    );
+    let host = SlcanLink::connect_tcp(addr, Duration::from_secs(30)).unwrap();
+    let (slcan, _) = remote_run(&config, host, FrameMode::Classic);
+    let stats = server.stop();
+    assert_same(&local, &slcan, "slcan over TCP");
+    assert_eq!(stats.feedback_applied, local.corrections());
+}
+
+fn hostile(seed: u64) -> FaultConfig {
+    FaultConfig {
+        drop: 0.10,
+        corrupt: 0.01,
+        duplicate: 0.01,
+        reorder: 0.01,
+        delay: 0.01,
+        max_delay: Duration::from_millis(4),
+        seed,
+    }
+}
+
+#[test]
+fn faults_both_ways_lose_no_feedback_and_apply_none_twice() {
+    let config = config(800);
+    let local = experiment::run(&config).unwrap();
+    for transport in ["memory", "udp"] {
+        let (host, car_end): (Box<dyn Link>, Box<dyn Link>) = match transport {
+            "memory" => {
+                let (h, c) = MemoryLink::pair();
+                (Box::new(h), Box::new(c))
+            }
+            _ => {
+                let (h, c) = udp_pair();
+                (Box::new(h), Box::new(c))
+            }
+        };
+        let server = ServerThread::spawn(
+            move || FaultyLink::new(car_end, hostile(1)),
+            car(FrameMode::Fd),
+        );
+        let started = std::time::Instant::now();
+        let mut remote = RemoteCar::new(
+            FaultyLink::new(host, hostile(2)),
+            RemoteConfig {
+                try_timeout: Duration::from_millis(1),
+                ..remote_config(FrameMode::Fd)
+            },
+        );
+        let report = experiment::run_with(&config, &mut remote, &mut |_| {}).unwrap();
+        let faults = remote.link().stats();
+        let remote_stats = remote.stats();
+        drop(remote);
+        let stats = server.stop();
+        eprintln!(
+            "{transport}: {:.1} s, {remote_stats:?}, {stats:?}, {faults:?}",
+            started.elapsed().as_secs_f64()
+        );
+        assert_same(&local, &report, transport);
+        // Every feedback sent was applied, exactly once.
+        assert_eq!(stats.feedback_applied, local.corrections(), "{transport}");
+        assert_eq!(remote_stats.feedback_acked, local.corrections() as u64);
+        assert_eq!(stats.feedback_refused, 0, "{transport}");
+        // The faults happened: frames were dropped, corrupted, duplicated, reordered, and
+        // copies of feedback reached the car.
+        assert!(faults.dropped > 100, "{transport}: {faults:?}");
+        assert!(faults.corrupted > 0 && faults.duplicated > 0 && faults.reordered > 0);
+        assert!(remote_stats.retransmissions > 100, "{remote_stats:?}");
+        assert!(
+            stats.errors > 0,
+            "the car reported lost messages: {stats:?}"
+        );
+    }
+}
+
+/// The `hil_mock` program as a child process, serving UDP on a fixed port with a flash file.
+struct Child9 {
+    child: Child,
+    port: u16,
+    stderr: Arc<Mutex<String>>,
+    reader: Option<JoinHandle<()>>,
+}
+
+fn spawn_server(flash: &Path, port: u16) -> Child9 {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_hil_mock_server"))
+        .args(["serve", "--link"])
+        .arg(format!("udp-listen://127.0.0.1:{port}"))
+        .arg("--flash")
+        .arg(flash)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start hil_mock");
+    let mut line = String::new();
+    BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let port = line
+        .trim()
+        .rsplit(':')
+        .next()
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("hil_mock said {line:?}"));
+    let stderr = Arc::new(Mutex::new(String::new()));
+    let sink = stderr.clone();
+    let err = child.stderr.take().unwrap();
+    let reader = std::thread::spawn(move || {
+        for l in BufReader::new(err).lines().map_while(Result::ok) {
+            sink.lock().unwrap().push_str(&(l + "\n"));
+        }
+    });
+    Child9 {
+        child,
+        port,
+        stderr,
+        reader: Some(reader),
+    }
+}
+
+impl Child9 {
+    /// The child's stderr so far, once `ready` holds for it (or after 30 s).
+    fn stderr_when(&self, ready: impl Fn(&str) -> bool) -> String {
+        for _ in 0..30_000 {
+            let log = self.stderr.lock().unwrap().clone();
+            if ready(&log) {
+                return log;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
+        self.stderr.lock().unwrap().clone()
+    }
+
+    fn kill9(&mut self) {
+        // `Child::kill` is SIGKILL on Unix.
+        self.child.kill().unwrap();
+        self.child.wait().unwrap();
+        // Its stderr is complete once the reader has seen the end of the pipe.
+        if let Some(r) = self.reader.take() {
+            let _ = r.join();
+        }
+    }
+}
+
+impl Drop for Child9 {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Waits until `ready` (the supervisor restarted the server); a generous bound turns a stuck
+/// supervisor into a failure instead of a hang.
+fn wait_for(ready: impl Fn() -> bool) {
+    for _ in 0..60_000 {
+        if ready() {
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    panic!("the supervisor did not restart hil_mock within a minute");
+}
+
+/// A [`CarLink`] that has the car killed (and restarted) before some feedbacks.
+struct KillBeforeFeedback<'a, C: CarLink> {
+    inner: C,
+    feedbacks: u32,
+    at: &'a [u32],
+    kill: &'a dyn Fn(bool),
+}
+
+impl<C: CarLink> CarLink for KillBeforeFeedback<'_, C> {
+    fn restore(&mut self, snapshot: &firmware_core::LearnerSnapshot) -> anyhow::Result<()> {
+        self.inner.restore(snapshot)
+    }
+    fn act(
+        &mut self,
+        tick: u32,
+        obs: &Observation,
+    ) -> anyhow::Result<firmware_core::agent::Decision> {
+        self.inner.act(tick, obs)
+    }
+    fn feedback(&mut self, tick: u32, feedback: &firmware_core::Feedback) -> anyhow::Result<()> {
+        self.feedbacks += 1;
+        if self.at.contains(&self.feedbacks) {
+            (self.kill)(true);
+        }
+        self.inner.feedback(tick, feedback)
+    }
+    fn snapshot(&mut self) -> anyhow::Result<firmware_core::LearnerSnapshot> {
+        self.inner.snapshot()
+    }
+}
+
+#[test]
+fn sigkill_and_restart_at_several_points_lose_nothing() {
+    // Killed while the run goes on (after these steps: wherever the next step is when the
+    // signal lands), and between an action and the feedback about it (before these feedbacks:
+    // the restarted car has forgotten the tick and the host shows it again).
+    const STEP_KILLS: [u32; 4] = [40, 150, 260, 480];
+    const FEEDBACK_KILLS: [u32; 2] = [5, 17];
+    const KILLS: usize = STEP_KILLS.len() + FEEDBACK_KILLS.len();
+    let config = config(600);
+    let local = experiment::run(&config).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("car.flash");
+    let server = spawn_server(&flash, 0);
+    let port = server.port;
+    let host = UdpLink::connect(SocketAddrV4::new(Ipv4Addr::LOCALHOST, port)).unwrap();
+
+    // A supervisor kills the server whenever a kill is requested and starts it again on the
+    // same port and flash. The run goes on meanwhile, so each kill lands wherever the run is:
+    // between an observation and its action, before or after a feedback was persisted, ...
+    let requested = Arc::new(AtomicU32::new(0));
+    let done = Arc::new(AtomicU32::new(0));
+    let finished = Arc::new(AtomicBool::new(false));
+    let (r, d, f) = (requested.clone(), done.clone(), finished.clone());
+    let flash_path = flash.clone();
+    let supervisor = std::thread::spawn(move || {
+        let mut server = server;
+        let mut log = String::new();
+        while !f.load(Ordering::Relaxed) {
+            if d.load(Ordering::Relaxed) == r.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(1));
+                continue;
+            }
+            server.kill9();
+            log.push_str(&server.stderr.lock().unwrap());
+            server = spawn_server(&flash_path, port);
+            d.fetch_add(1, Ordering::Relaxed);
+        }
+        server.kill9();
+        log.push_str(&server.stderr.lock().unwrap());
+        log
+    });
+    let kill = |wait: bool| {
+        // One kill at a time: wait for the previous restart, then ask for the next.
+        wait_for(|| done.load(Ordering::Relaxed) == requested.load(Ordering::Relaxed));
+        let n = requested.fetch_add(1, Ordering::Relaxed) + 1;
+        if wait {
+            wait_for(|| done.load(Ordering::Relaxed) == n);
+        }
+    };
+    let mut car = KillBeforeFeedback {
+        inner: RemoteCar::new(host, remote_config(FrameMode::Fd)),
+        feedbacks: 0,
+        at: &FEEDBACK_KILLS,
+        kill: &kill,
+    };
+    let report = experiment::run_with(&config, &mut car, &mut |rec| {
+        if STEP_KILLS.contains(&rec.step) {
+            kill(false);
+        }
+    })
+    .unwrap();
+    let remote = car.inner;
+    wait_for(|| done.load(Ordering::Relaxed) == requested.load(Ordering::Relaxed));
+    finished.store(true, Ordering::Relaxed);
+    let log = supervisor.join().unwrap();
+    eprintln!("{:?}\n{log}", remote.stats());
+    assert_eq!(done.load(Ordering::Relaxed), KILLS as u32);
+    assert!(remote.stats().reobserved >= FEEDBACK_KILLS.len() as u64);
+    assert_same(&local, &report, "killed and restarted");
+    // Every restart found what the previous process wrote (the configuration at least).
+    assert_eq!(log.matches("restored generation").count(), KILLS, "{log}");
+    // The flash holds the final learner.
+    let (_, r) = FlashStore::open(&flash).unwrap();
+    assert_eq!(r.unwrap().state.snapshot, report.final_snapshot);
+}
+
+#[test]
+fn a_corrupted_page_on_disk_falls_back_to_the_other_page() {
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("car.flash");
+    let learner = hil_mock::server::fresh_learner();
+    let mut older = learner;
+    firmware_core::OnlineLearner::step(&mut older, &[0.5, -0.25, 0.0, 0.0, 1.0, 0.0]).unwrap();
+    let mut newer = older;
+    firmware_core::OnlineLearner::step(&mut newer, &[0.5, -0.25, 0.0, 0.0, 1.0, 0.0]).unwrap();
+    let state = |l: &firmware_core::Learner| Persisted {
+        session: Some(3),
+        snapshot: l.snapshot(),
+        receiver: Default::default(),
+    };
+    let (mut store, _) = FlashStore::open(&flash).unwrap();
+    store.save(&state(&older)).unwrap(); // page 0, generation 1
+    store.save(&state(&newer)).unwrap(); // page 1, generation 2
+    drop(store);
+    let mut bytes = std::fs::read(&flash).unwrap();
+    bytes[PAGE_SIZE + 60] ^= 0x04; // one bit of the newer page's payload
+    std::fs::write(&flash, &bytes).unwrap();
+
+    let server = spawn_server(&flash, 0);
+    let host = UdpLink::connect(SocketAddrV4::new(Ipv4Addr::LOCALHOST, server.port)).unwrap();
+    let mut remote = RemoteCar::new(host, remote_config(FrameMode::Fd));
+    assert_eq!(remote.snapshot().unwrap(), older.snapshot());
+    let log = server.stderr_when(|l| l.contains("restored"));
+    assert!(
+        log.contains("restored generation 1 from page 0")
+            && log.contains("fell back from corrupt page 1"),
+        "{log}"
+    );
+}
+
+/// Sends one observation and returns the next action command the car sends for `tick`.
+fn observe(host: &mut MemoryLink, inbox: &mut Inbox, tick: u32) -> ActionCommand {
+    let msg = Message::Observation(ObservationMessage {
+        tick,
+        observation: Observation::open_space(),
+    });
+    transmit(
+        &mut LinkBus(host),
+        &msg,
+        Direction::HostToCar,
+        FrameMode::Fd,
+    )
+    .unwrap();
+    next_action(host, inbox)
+}
+
+fn next_action(host: &mut MemoryLink, inbox: &mut Inbox) -> ActionCommand {
+    loop {
+        let f = host
+            .recv(Duration::from_secs(30))
+            .unwrap()
+            .expect("the car answers");
+        if let Received::Message(Message::Action(a)) = inbox.feed(&f, 0) {
+            return a;
+        }
+    }
+}
+
+#[test]
+fn the_watchdog_stops_the_car_and_the_next_observation_resumes() {
+    let (mut host, car_end) = MemoryLink::pair();
+    let server = ServerThread::spawn(
+        move || car_end,
+        CarConfig {
+            watchdog_ms: 30,
+            mode: FrameMode::Fd,
+        },
+    );
+    let mut inbox = Inbox::new(Direction::CarToHost);
+    let first = observe(&mut host, &mut inbox, 1);
+    assert!(first.track.is_some());
+    // Silence: the car commands one stop for its last tick (waited for, not timed).
+    let stop = next_action(&mut host, &mut inbox);
+    assert_eq!(stop, ActionCommand::stop(1));
+    // Observations return: it drives again, and stops again when they stop.
+    let resumed = observe(&mut host, &mut inbox, 2);
+    assert_eq!(resumed.tick, 2);
+    assert!(resumed.track.is_some());
+    assert_eq!(next_action(&mut host, &mut inbox), ActionCommand::stop(2));
+    drop(host);
+    let stats = server.stop();
+    assert_eq!((stats.watchdog_stops, stats.actions), (2, 2));
+}
+
+#[test]
+fn watchdog_stops_between_ticks_do_not_change_a_run() {
+    // A watchdog of 1 ms fires between almost every two ticks; the host tells its stops from
+    // the car's answers and the run is the same as in process.
+    let config = config(300);
+    let local = experiment::run(&config).unwrap();
+    let (host, car_end) = MemoryLink::pair();
+    let server = ServerThread::spawn(
+        move || car_end,
+        CarConfig {
+            watchdog_ms: 1,
+            mode: FrameMode::Fd,
+        },
+    );
+    let mut remote = RemoteCar::new(host, remote_config(FrameMode::Fd));
+    let report = experiment::run_with(&config, &mut remote, &mut |_| {
+        std::thread::sleep(Duration::from_millis(2));
+    })
+    .unwrap();
+    drop(remote);
+    let stats = server.stop();
+    assert_same(&local, &report, "with watchdog stops");
+    assert!(stats.watchdog_stops > 0, "{stats:?}");
+}
+
+#[test]
+fn run_link_addresses_are_checked() {
+    for bad in [
+        "udp://192.168.1.1:4000",
+        "tcp://127.0.0.1:1",
+        "udp://127.0.0.1",
+    ] {
+        assert!(bad.parse::<LinkAddress>().is_err(), "{bad}");
+    }
+}
