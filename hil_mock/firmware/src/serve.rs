@@ -1,9 +1,9 @@
 //! The car: a [`CarNode`] behind slcan on UART0, with a millisecond clock and the persisted
 //! state in RAM.
 //!
-//! The loop takes every frame waiting on the UART to [`CarNode::on_frame`] (stamped with the
-//! clock), then calls [`CarNode::poll`] for the watchdog and the reassembly timeouts, and starts
-//! again; it never blocks on the UART and never ends.
+//! The loop takes the frames waiting on the UART (up to 64 in a round) to [`CarNode::on_frame`]
+//! (stamped with the clock), then calls [`CarNode::poll`] for the watchdog and the reassembly
+//! timeouts, and starts again; it never blocks on the UART and never ends.
 //!
 //! **Persistence.** [`RamStore`] keeps the last [`Persisted`] state in RAM: enough for QEMU,
 //! where a restart loses everything anyway. The car's controller writes it to flash instead, in
@@ -19,6 +19,9 @@ use protocol::car::{CarNode, Persist, Persisted};
 use crate::clock;
 use crate::slcan_bus::SlcanBus;
 use crate::uart::Uart0;
+
+/// Frames handled between two polls of the node: an observation in classic frames is 40.
+const FRAMES_PER_ROUND: usize = 64;
 
 /// The persisted state, in RAM (see the module documentation).
 #[derive(Debug, Default)]
@@ -53,8 +56,12 @@ pub fn serve(node: &mut CarNode) -> Option<Infallible> {
     let mut bus = SlcanBus::new(uart);
     let mut store = RamStore::default();
     loop {
-        // The bus never fails (`Infallible`): a frame it cannot carry is not its to refuse.
-        while let Ok(Some(frame)) = bus.receive() {
+        // The bus never fails (`Infallible`). At most a burst of frames per round, so that a
+        // host that never pauses cannot keep the watchdog and the timeouts from running.
+        for _ in 0..FRAMES_PER_ROUND {
+            let Ok(Some(frame)) = bus.receive() else {
+                break;
+            };
             let _ = node.on_frame(&frame, clock::now_ms(), &mut bus, &mut store);
         }
         let _ = node.poll(clock::now_ms(), &mut bus);
