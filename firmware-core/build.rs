@@ -378,6 +378,18 @@ fn main() {
     )
     .unwrap();
 
+    writeln!(
+        out,
+        "/// Per trajectory: its number of clearance samples (`TRAJECTORIES[a].samples().len()`)."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static SAMPLE_COUNT: [u8; crate::MAX_ACTIONS] = [{}];",
+        list(counts.iter().map(|c| c.to_string()).collect())
+    )
+    .unwrap();
+
     let path =
         PathBuf::from(std::env::var_os("OUT_DIR").expect("OUT_DIR")).join("lattice_tables.rs");
     std::fs::write(path, out).expect("write lattice tables");

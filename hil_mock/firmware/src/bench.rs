@@ -7,8 +7,12 @@
 use firmware_core::agent::Agent;
 use firmware_core::evaluator::beam_direction;
 use firmware_core::lattice::SCAN_BEAMS;
-use firmware_core::observation::{Observation, PathReference, SCAN_MAX_RANGE, SemanticClass, SemanticObject};
-use firmware_core::{ActionFeedback, ActionIndex, Feature, Feedback, PreferenceFeedback, SemanticFeedback};
+use firmware_core::observation::{
+    Observation, PathReference, SCAN_MAX_RANGE, SemanticClass, SemanticObject,
+};
+use firmware_core::{
+    ActionFeedback, ActionIndex, Feature, Feedback, PreferenceFeedback, SemanticFeedback,
+};
 
 /// The three scenes.
 pub fn scenes() -> [Observation; 3] {
@@ -17,16 +21,39 @@ pub fn scenes() -> [Observation; 3] {
     for j in 0..SCAN_BEAMS {
         let (_, s) = beam_direction(j).unwrap_or((1.0, 0.0));
         let r = 0.75 / if s < 0.0 { -s } else { s };
-        corridor.scan.ranges[j] = if r < SCAN_MAX_RANGE { r } else { SCAN_MAX_RANGE };
+        corridor.scan.ranges[j] = if r < SCAN_MAX_RANGE {
+            r
+        } else {
+            SCAN_MAX_RANGE
+        };
     }
-    let _ = corridor.objects.push(SemanticObject { class: SemanticClass::Door, x: 1.5, y: 0.9, radius: 0.45 });
+    let _ = corridor.objects.push(SemanticObject {
+        class: SemanticClass::Door,
+        x: 1.5,
+        y: 0.9,
+        radius: 0.45,
+    });
     let mut cluttered = corridor.clone();
     for j in (0..SCAN_BEAMS).step_by(3) {
         cluttered.scan.ranges[j] = 0.6 + 0.02 * j as f32;
     }
-    let _ = cluttered.objects.push(SemanticObject { class: SemanticClass::Chair, x: 1.0, y: -0.5, radius: 0.3 });
-    let _ = cluttered.objects.push(SemanticObject { class: SemanticClass::Stairs, x: 2.5, y: 0.0, radius: 1.0 });
-    cluttered.reference = PathReference { x: 0.95, y: 0.2, heading: 0.3 };
+    let _ = cluttered.objects.push(SemanticObject {
+        class: SemanticClass::Chair,
+        x: 1.0,
+        y: -0.5,
+        radius: 0.3,
+    });
+    let _ = cluttered.objects.push(SemanticObject {
+        class: SemanticClass::Stairs,
+        x: 2.5,
+        y: 0.0,
+        radius: 1.0,
+    });
+    cluttered.reference = PathReference {
+        x: 0.95,
+        y: 0.2,
+        heading: 0.3,
+    };
     [open, corridor, cluttered]
 }
 
@@ -38,7 +65,9 @@ pub fn act(agent: &mut Agent, n: u32, only: Option<usize>) -> u32 {
     for t in 0..n {
         let scene = &scenes[only.unwrap_or(t as usize % 3) % 3];
         if let Ok(d) = agent.act(t, scene) {
-            sum = sum.wrapping_mul(31).wrapping_add(d.action.map_or(99, |a| a.get() as u32));
+            sum = sum
+                .wrapping_mul(31)
+                .wrapping_add(d.action.map_or(99, |a| a.get() as u32));
         }
     }
     sum
@@ -49,8 +78,15 @@ pub fn feedback(i: u32) -> Feedback {
     let a = |k: u32| ActionIndex::new((k % 49) as usize).unwrap_or(ActionIndex::FIRST);
     match i % 3 {
         0 => ActionFeedback { action: a(7 + i) }.into(),
-        1 => PreferenceFeedback { preferred: a(3 + i), other: a(20 + i) }.into(),
-        _ => SemanticFeedback::new().avoid(Feature::Door).prefer(Feature::Path).into(),
+        1 => PreferenceFeedback {
+            preferred: a(3 + i),
+            other: a(20 + i),
+        }
+        .into(),
+        _ => SemanticFeedback::new()
+            .avoid(Feature::Door)
+            .prefer(Feature::Path)
+            .into(),
     }
 }
 

@@ -2,48 +2,68 @@
 //!
 //! Modes, chosen by the semihosting command line (`-semihosting-config ...,arg=MODE,arg=N`):
 //!
+//! * `serve` (the default, also with no arguments): the car. A [`protocol::car::CarNode`] on
+//!   UART0 speaking slcan (classic CAN frames), with a SysTick millisecond clock and its persisted
+//!   state in RAM; see [`serve`]. QEMU connects UART0 to its first `-serial`, e.g.
+//!   `-serial tcp:127.0.0.1:PORT,server`, and `host-sim run --link slcan+tcp://127.0.0.1:PORT`
+//!   drives it;
+//! * `echo`: a diagnostic of the slcan link (every frame is answered with the bus's counters);
+//!
+//! and with the cargo feature `bench` (on by default; see [`modes`]):
+//!
 //! * `bench-act N [SCENE]`: N ticks of observation → action (evaluate 64 trajectories + select),
 //!   on the three bench scenes in turn or on scene 0 (open), 1 (corridor) or 2 (cluttered);
 //! * `bench-learn N`: N feedback → update steps;
-//! * `stack`: the worst-case stack of act and of every feedback kind, by painting.
+//! * `bench-node N`: N observations through the car node, frame by frame (reassembly, decoding,
+//!   act, the answer encoded and segmented);
+//! * `stack`: the worst-case stack of act, of every feedback kind and of the car node, by painting;
+//! * `replay-count`, `replay I do|skip` (feature `replay`): ticks recorded from the simulator.
 //!
-//! Every mode prints its result on the semihosting console and exits with status 0.
-//! No allocator is linked: the agent lives in a `StaticCell`, counted by the linker.
+//! The measurement modes print their result on the semihosting console and exit with status 0.
+//! Reading the command line is a semihosting call, so the image expects a debugger or QEMU's
+//! `-semihosting-config enable=on`; without one the call raises a HardFault and the image stops.
+//! No allocator is linked: the node (and the bench agent) live in `ConstStaticCell`s, built at
+//! compile time and counted by the linker.
 
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
 
+#[cfg(feature = "bench")]
 mod bench;
+mod clock;
+#[cfg(feature = "bench")]
+mod modes;
+#[cfg(feature = "replay")]
+mod replay;
+mod serve;
+mod slcan_bus;
+#[cfg(feature = "bench")]
 mod stack;
-#[allow(dead_code)]
 mod uart;
 
 use cortex_m_rt::entry;
-use firmware_core::agent::Agent;
-use firmware_core::{Learner, LearnerParams, ValidLearnerParams};
+use firmware_core::{Learner, ValidLearnerParams};
+use protocol::car::{CarConfig, CarNode};
 use semihosting::{println, process};
 use static_cell::ConstStaticCell;
 
-/// The agent, built at compile time into .bss/.data: never on the stack.
-static AGENT: ConstStaticCell<Agent> = ConstStaticCell::new(Agent::new(Learner::new(ValidLearnerParams::DEFAULT)));
+/// The car node with the default learner (the host configures its own), built at compile time
+/// into .data: never on the stack.
+static NODE: ConstStaticCell<CarNode> = ConstStaticCell::new(CarNode::new(
+    CarConfig::DEFAULT,
+    Learner::new(ValidLearnerParams::DEFAULT),
+));
 
-fn learner() -> Learner {
-    let params = LearnerParams::default().with_initial([1.0, 2.0, 1.0, 1.0, -3.0, 0.5]);
-    match params.check() {
-        Ok(p) => Learner::new(p),
-        Err(_) => process::exit(2),
-    }
-}
-
-fn number(arg: Option<&str>) -> u32 {
-    arg.and_then(|s| s.parse().ok()).unwrap_or(0)
-}
+/// The agent of the measurement modes.
+#[cfg(feature = "bench")]
+static AGENT: ConstStaticCell<firmware_core::agent::Agent> = ConstStaticCell::new(
+    firmware_core::agent::Agent::new(Learner::new(ValidLearnerParams::DEFAULT)),
+);
 
 #[entry]
 fn main() -> ! {
-    let agent = AGENT.take();
-    agent.set_learner(learner());
+    let node = NODE.take();
     let args = match semihosting::experimental::env::args::<256>() {
         Ok(a) => a,
         Err(_) => {
@@ -54,45 +74,49 @@ fn main() -> ! {
     let mut args = args.map(|a| a.unwrap_or(""));
     let _program = args.next();
     match args.next() {
-        Some("bench-act") => {
-            let n = number(args.next());
-            let only = args.next().and_then(|s| s.parse().ok());
-            let sum = bench::act(agent, n, only);
-            println!("bench-act {n} checksum {sum}");
+        None | Some("serve") => {
+            let _ = serve::serve(node);
+            println!("error: UART0 or the core peripherals already taken");
+            process::exit(3)
         }
-        Some("bench-learn") => {
-            let n = number(args.next());
-            let ok = bench::learn(agent, n);
-            println!("bench-learn {n} accepted {ok}");
-        }
-        Some("stack") => {
-            let scenes = bench::scenes();
-            let mut act = 0;
-            for (t, scene) in scenes.iter().enumerate() {
-                let at = stack::paint();
-                let _ = agent.act(t as u32, scene);
-                act = act.max(stack::depth_below(at));
-            }
-            let mut learn = 0;
-            for i in 0..3 {
-                let fb = bench::feedback(i);
-                let at = stack::paint();
-                let _ = agent.feedback(2, &fb);
-                learn = learn.max(stack::depth_below(at));
-            }
+        Some("echo") => echo(),
+        #[cfg(feature = "bench")]
+        Some(mode) => modes::run(mode, args, AGENT.take(), node),
+        #[cfg(not(feature = "bench"))]
+        Some(other) => {
             println!(
-                "stack act {act} learn {learn} main {} deepest {} region {}",
-                stack::used_above(stack::paint()),
-                stack::high_water(),
-                stack::region()
+                "error: unknown mode {other:?}; expected serve or echo (others: feature bench)"
             );
-        }
-        other => {
-            println!("error: unknown mode {:?}; expected bench-act N, bench-learn N or stack", other);
             process::exit(2)
         }
     }
-    process::exit(0)
+}
+
+/// Diagnostic of the slcan link: every frame received on UART0 is answered with a frame whose
+/// identifier is one more and whose data are four little-endian `u16` counters of the bus: frames
+/// received, malformed lines, overlong lines, commands answered.
+fn echo() -> ! {
+    use protocol::can::{CanBus, CanFrame, CanId};
+    let Some(uart) = uart::Uart0::take() else {
+        process::exit(3)
+    };
+    let mut bus = slcan_bus::SlcanBus::new(uart);
+    loop {
+        if let Ok(Some(f)) = bus.receive() {
+            let id = CanId::standard(((f.id().raw() + 1) & 0x7FF) as u16).unwrap_or(f.id());
+            let s = bus.stats();
+            let mut data = [0u8; 8];
+            for (i, v) in [s.frames_in, s.bad_lines, s.overflows, s.commands]
+                .into_iter()
+                .enumerate()
+            {
+                data[2 * i..2 * i + 2].copy_from_slice(&(v as u16).to_le_bytes());
+            }
+            if let Ok(back) = CanFrame::new(id, &data) {
+                let _ = bus.transmit(&back);
+            }
+        }
+    }
 }
 
 #[panic_handler]

@@ -11,7 +11,10 @@ unsafe extern "C" {
 
 fn bounds() -> (usize, usize) {
     // Only the addresses of the linker symbols are taken, which is safe.
-    (core::ptr::addr_of!(_stack_end) as usize, core::ptr::addr_of!(_stack_start) as usize)
+    (
+        core::ptr::addr_of!(_stack_end) as usize,
+        core::ptr::addr_of!(_stack_start) as usize,
+    )
 }
 
 /// Paints from the bottom of the stack region to 64 bytes below the current stack pointer, and
@@ -44,11 +47,6 @@ fn lowest_used() -> usize {
 /// calls made in between, plus at most 64 bytes of the caller's frame.
 pub fn depth_below(painted_to: usize) -> usize {
     painted_to.saturating_sub(lowest_used())
-}
-
-/// Bytes between the top of the stack and `painted_to`: the frames of `main` and its callers.
-pub fn used_above(painted_to: usize) -> usize {
-    bounds().1 - painted_to
 }
 
 /// Bytes of stack used at the deepest point since the last [`paint`].

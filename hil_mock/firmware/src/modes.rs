@@ -1,0 +1,191 @@
+//! The measurement modes (cargo feature `bench`, on by default): fixed workloads for instruction
+//! counting (`bench-act`, `bench-learn`, `bench-node`, and `replay` with feature `replay`) and the
+//! worst-case stack by painting (`stack`).
+
+use core::convert::Infallible;
+
+use firmware_core::agent::Agent;
+use firmware_core::observation::Observation;
+use firmware_core::{ActionFeedback, ActionIndex, Feedback, Learner, LearnerParams};
+use protocol::MAX_MESSAGE_SIZE;
+use protocol::can::{CanBus, CanFrame};
+use protocol::car::CarNode;
+use protocol::isotp::{FrameMode, Segmenter};
+use protocol::message::{DeliveryId, FeedbackMessage, Message, ObservationMessage};
+use protocol::stream::{Direction, Stream};
+use semihosting::{println, process};
+
+use crate::serve::RamStore;
+use crate::{bench, stack};
+
+fn learner() -> Learner {
+    let params = LearnerParams::default().with_initial([1.0, 2.0, 1.0, 1.0, -3.0, 0.5]);
+    match params.check() {
+        Ok(p) => Learner::new(p),
+        Err(_) => process::exit(2),
+    }
+}
+
+fn number(arg: Option<&str>) -> u32 {
+    arg.and_then(|s| s.parse().ok()).unwrap_or(0)
+}
+
+/// A bus that drops what the node transmits and never receives.
+struct NullBus;
+
+impl CanBus for NullBus {
+    type Error = Infallible;
+    fn transmit(&mut self, _: &CanFrame) -> Result<(), Infallible> {
+        Ok(())
+    }
+    fn receive(&mut self) -> Result<Option<CanFrame>, Infallible> {
+        Ok(None)
+    }
+}
+
+/// Hands `msg` to `node` frame by frame (classic CAN, as on the UART); returns the deepest stack
+/// below the painted mark across the frames, and the deepest from the top of the stack.
+fn to_node(
+    node: &mut CarNode,
+    msg: &Message,
+    store: &mut RamStore,
+    measure: bool,
+) -> (usize, usize) {
+    let mut buf = [0u8; MAX_MESSAGE_SIZE];
+    let Ok(bytes) = msg.emit(&mut buf) else {
+        return (0, 0);
+    };
+    let Some(stream) = Stream::for_kind(msg.kind(), Direction::HostToCar) else {
+        return (0, 0);
+    };
+    let Ok(frames) = Segmenter::new(stream.id(), bytes, FrameMode::Classic) else {
+        return (0, 0);
+    };
+    let (mut below, mut top) = (0, 0);
+    for frame in frames {
+        let at = if measure { stack::paint() } else { 0 };
+        let _ = node.on_frame(&frame, 0, &mut NullBus, store);
+        if measure {
+            below = below.max(stack::depth_below(at));
+            top = top.max(stack::high_water());
+        }
+    }
+    (below, top)
+}
+
+fn observation(tick: u32, observation: Observation) -> Message {
+    Message::Observation(ObservationMessage { tick, observation })
+}
+
+fn feedback(seq: u8, tick: u32, feedback: Feedback) -> Message {
+    Message::Feedback(FeedbackMessage {
+        id: DeliveryId { session: 1, seq },
+        tick,
+        feedback,
+    })
+}
+
+/// Runs measurement mode `mode` with its arguments and exits.
+pub fn run<'a>(
+    mode: &str,
+    mut args: impl Iterator<Item = &'a str>,
+    agent: &mut Agent,
+    node: &mut CarNode,
+) -> ! {
+    agent.set_learner(learner());
+    match mode {
+        "bench-act" => {
+            let n = number(args.next());
+            let only = args.next().and_then(|s| s.parse().ok());
+            let sum = bench::act(agent, n, only);
+            println!("bench-act {n} checksum {sum}");
+        }
+        "bench-learn" => {
+            let n = number(args.next());
+            let ok = bench::learn(agent, n);
+            println!("bench-learn {n} accepted {ok}");
+        }
+        "bench-node" => {
+            // N ticks through the car node: observation frames in, action frames out.
+            let n = number(args.next());
+            let scenes = bench::scenes();
+            let mut store = RamStore::default();
+            for t in 0..n {
+                let scene = scenes[t as usize % 3].clone();
+                to_node(node, &observation(t, scene), &mut store, false);
+            }
+            println!("bench-node {n} actions {}", node.stats().actions);
+        }
+        "stack" => {
+            // Depth of each workload below its caller's frame, and the worst from the top of the
+            // stack (every frame above included) over all of them.
+            let scenes = bench::scenes();
+            let (mut act, mut worst) = (0, 0);
+            for (t, scene) in scenes.iter().enumerate() {
+                let at = stack::paint();
+                let _ = agent.act(t as u32, scene);
+                act = act.max(stack::depth_below(at));
+                worst = worst.max(stack::high_water());
+            }
+            let mut learn = 0;
+            for i in 0..3 {
+                let fb = bench::feedback(i);
+                let at = stack::paint();
+                let _ = agent.feedback(2, &fb);
+                learn = learn.max(stack::depth_below(at));
+                worst = worst.max(stack::high_water());
+            }
+            // The car node, frame by frame: observations, then each kind of feedback.
+            let mut store = RamStore::default();
+            let mut car = 0;
+            let mut take = |(below, top): (usize, usize)| {
+                car = car.max(below);
+                worst = worst.max(top);
+            };
+            for (t, scene) in scenes.iter().enumerate() {
+                take(to_node(
+                    node,
+                    &observation(t as u32, scene.clone()),
+                    &mut store,
+                    true,
+                ));
+            }
+            for i in 0..3u8 {
+                let fb = bench::feedback(i as u32);
+                take(to_node(node, &feedback(i, 2, fb), &mut store, true));
+            }
+            let a = ActionIndex::new(5).unwrap_or(ActionIndex::FIRST);
+            let fb = Feedback::Action(ActionFeedback { action: a });
+            take(to_node(node, &feedback(3, 1, fb), &mut store, true));
+            println!(
+                "stack act {act} learn {learn} car-node {car} worst {worst} region {}",
+                stack::region()
+            );
+        }
+        #[cfg(feature = "replay")]
+        "replay-count" => println!("replay-count {}", crate::replay::count()),
+        #[cfg(feature = "replay")]
+        "replay" => {
+            use crate::replay::{Last, replay};
+            let last = number(args.next()) as usize;
+            let run_last = args.next() == Some("do");
+            let (what, sum) = replay(agent, last, run_last);
+            match what {
+                Last::Restore => println!("replay {last} restore checksum {sum}"),
+                Last::Act(t, a) => println!("replay {last} act tick {t} action {a} checksum {sum}"),
+                Last::Feedback(t, ok) => {
+                    println!("replay {last} feedback tick {t} applied {ok} checksum {sum}")
+                }
+                Last::Other => println!("replay {last} other checksum {sum}"),
+            }
+        }
+        other => {
+            println!(
+                "error: unknown mode {other:?}; expected serve, echo, bench-act N [SCENE], \
+                 bench-learn N, bench-node N, stack, replay-count or replay I do|skip"
+            );
+            process::exit(2)
+        }
+    }
+    process::exit(0)
+}
