@@ -291,19 +291,9 @@ fn prepare_out(dir: &Path) -> Result<()> {
 fn run(args: &RunArgs) -> Result<()> {
     let config = run_config(args)?;
     prepare_out(&args.out)?;
-    let bar = ProgressBar::with_draw_target(
-        Some(config.steps as u64),
-        if std::io::stderr().is_terminal() {
-            ProgressDrawTarget::stderr()
-        } else {
-            ProgressDrawTarget::hidden()
-        },
-    );
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} steps ({per_sec}) {msg}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    let bar = progress_bar(
+        config.steps as u64,
+        "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} steps ({per_sec}) {msg}",
     );
     let mut link = car_link(args, &config)?;
     let started = Instant::now();
@@ -394,19 +384,9 @@ fn reproduce(args: &ReproduceArgs) -> Result<()> {
     }
     let pool = pool.build().context("cannot start the worker threads")?;
     let jobs = reproduce::jobs(&o, shard).len();
-    let bar = ProgressBar::with_draw_target(
-        Some(jobs as u64),
-        if std::io::stderr().is_terminal() {
-            ProgressDrawTarget::stderr()
-        } else {
-            ProgressDrawTarget::hidden()
-        },
-    );
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} trials, {eta} left {msg}",
-        )
-        .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    let bar = progress_bar(
+        jobs as u64,
+        "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} trials, {eta} left {msg}",
     );
     bar.set_message(format!("({} threads)", pool.current_num_threads()));
     let started = Instant::now();
@@ -587,4 +567,18 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A progress bar of `len` units on standard error, hidden when that is not a terminal.
+fn progress_bar(len: u64, template: &str) -> ProgressBar {
+    let target = if std::io::stderr().is_terminal() {
+        ProgressDrawTarget::stderr()
+    } else {
+        ProgressDrawTarget::hidden()
+    };
+    let bar = ProgressBar::with_draw_target(Some(len), target);
+    bar.set_style(
+        ProgressStyle::with_template(template).unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar
 }

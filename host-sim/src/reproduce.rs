@@ -903,6 +903,32 @@ fn pm(x: (f64, f64)) -> String {
     format!("{:.3} ± {:.3}", x.0, x.1)
 }
 
+/// One row per setting of `group`: its key column, the losses, the corrections.
+fn summary_table(
+    r: &mut String,
+    aggs: &[Aggregate],
+    group: Group,
+    key: &str,
+    key_of: impl Fn(&Aggregate) -> String,
+) {
+    let _ = writeln!(
+        r,
+        "| {key} | first-tenth loss | final loss | corrections | first → last tenth corrections |\n|---|---|---|---|---|"
+    );
+    for a in aggs.iter().filter(|a| a.setting.group == group) {
+        let _ = writeln!(
+            r,
+            "| {} | {} | {} | {} | {:.1} → {:.1} |",
+            key_of(a),
+            pm(a.first_loss),
+            pm(a.final_loss),
+            pm1(a.total_corrections),
+            a.first_tenth_corrections.0,
+            a.last_tenth_corrections.0
+        );
+    }
+}
+
 fn pm1(x: (f64, f64)) -> String {
     format!("{:.1} ± {:.1}", x.0, x.1)
 }
@@ -1624,42 +1650,16 @@ fn report(
         r,
         "\n## Noise\n\n![noise](figures/noise.png)\n\n![noise sweep](figures/noise_sweep.png)\n"
     );
-    let _ = writeln!(
-        r,
-        "| σ | first-tenth loss | final loss | corrections | first → last tenth corrections |\n|---|---|---|---|---|"
-    );
-    for a in aggs.iter().filter(|a| a.setting.group == Group::Noise) {
-        let _ = writeln!(
-            r,
-            "| {} | {} | {} | {} | {:.1} → {:.1} |",
-            a.setting.noise,
-            pm(a.first_loss),
-            pm(a.final_loss),
-            pm1(a.total_corrections),
-            a.first_tenth_corrections.0,
-            a.last_tenth_corrections.0
-        );
-    }
+    summary_table(&mut r, aggs, Group::Noise, "σ", |a| {
+        a.setting.noise.to_string()
+    });
     let _ = writeln!(
         r,
         "\n## Thresholds\n\n![thresholds](figures/thresholds.png)\n"
     );
-    let _ = writeln!(
-        r,
-        "| threshold | first-tenth loss | final loss | corrections | first → last tenth corrections |\n|---|---|---|---|---|"
-    );
-    for a in aggs.iter().filter(|a| a.setting.group == Group::Thresholds) {
-        let _ = writeln!(
-            r,
-            "| {} | {} | {} | {} | {:.1} → {:.1} |",
-            a.setting.threshold,
-            pm(a.first_loss),
-            pm(a.final_loss),
-            pm1(a.total_corrections),
-            a.first_tenth_corrections.0,
-            a.last_tenth_corrections.0
-        );
-    }
+    summary_table(&mut r, aggs, Group::Thresholds, "threshold", |a| {
+        a.setting.threshold.to_string()
+    });
     let _ = writeln!(
         r,
         "\n## Paths\n\nThe teacher's own policy (purple) and trial 0's trained learner, frozen (orange), each \
