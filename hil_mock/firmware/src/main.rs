@@ -9,7 +9,7 @@
 //!   drives it;
 //! * `echo`: a diagnostic of the slcan link (every frame is answered with the bus's counters);
 //!
-//! and with the cargo feature `bench` (on by default; see [`modes`]):
+//! and with the cargo feature `bench` (on by default; see `modes`):
 //!
 //! * `bench-act N [SCENE]`: N ticks of observation → action (evaluate 64 trajectories + select),
 //!   on the three bench scenes in turn or on scene 0 (open), 1 (corridor) or 2 (cluttered);
@@ -20,8 +20,11 @@
 //! * `replay-count`, `replay I do|skip` (feature `replay`): ticks recorded from the simulator.
 //!
 //! The measurement modes print their result on the semihosting console and exit with status 0.
-//! Reading the command line is a semihosting call, so the image expects a debugger or QEMU's
-//! `-semihosting-config enable=on`; without one the call raises a HardFault and the image stops.
+//! Reading the command line is a semihosting call, so an image with the feature `cli` (implied by
+//! `bench`, on by default) expects a debugger or QEMU's `-semihosting-config enable=on`; without
+//! one the call raises a HardFault and the image stops. The car's own image
+//! (`--no-default-features`) has no command line and no semihosting: it serves at once, and a
+//! panic resets the controller (the car would restore its state from flash).
 //! No allocator is linked: the node (and the bench agent) live in `ConstStaticCell`s, built at
 //! compile time and counted by the linker.
 
@@ -45,6 +48,7 @@ mod uart;
 use cortex_m_rt::entry;
 use firmware_core::{Learner, ValidLearnerParams};
 use protocol::car::{CarConfig, CarNode};
+#[cfg(feature = "cli")]
 use semihosting::{println, process};
 use static_cell::ConstStaticCell;
 
@@ -61,6 +65,7 @@ static AGENT: ConstStaticCell<firmware_core::agent::Agent> = ConstStaticCell::ne
     firmware_core::agent::Agent::new(Learner::new(ValidLearnerParams::DEFAULT)),
 );
 
+#[cfg(feature = "cli")]
 #[entry]
 fn main() -> ! {
     let node = NODE.take();
@@ -92,6 +97,17 @@ fn main() -> ! {
     }
 }
 
+/// The car's image: no command line, serve at once.
+#[cfg(not(feature = "cli"))]
+#[entry]
+fn main() -> ! {
+    let node = NODE.take();
+    let _ = serve::serve(node);
+    // UART0 or the core peripherals were already taken: nothing to serve with.
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+#[cfg(feature = "cli")]
 /// Diagnostic of the slcan link: every frame received on UART0 is answered with a frame whose
 /// identifier is one more and whose data are four little-endian `u16` counters of the bus: frames
 /// received, malformed lines, overlong lines, commands answered.
@@ -119,8 +135,16 @@ fn echo() -> ! {
     }
 }
 
+#[cfg(feature = "cli")]
 #[panic_handler]
 fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
     println!("panic: {}", info);
     process::exit(101)
+}
+
+/// Without a console, a panic resets the controller.
+#[cfg(not(feature = "cli"))]
+#[panic_handler]
+fn panic(_info: &core::panic::PanicInfo<'_>) -> ! {
+    cortex_m::peripheral::SCB::sys_reset()
 }

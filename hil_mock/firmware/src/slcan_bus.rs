@@ -68,6 +68,13 @@ impl SlcanBus {
     }
 
     /// The counters so far.
+    #[cfg_attr(
+        not(feature = "cli"),
+        expect(
+            dead_code,
+            reason = "read by the echo diagnostic of the command-line images"
+        )
+    )]
     pub fn stats(&self) -> BusStats {
         self.stats
     }
