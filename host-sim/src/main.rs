@@ -173,7 +173,16 @@ fn car_link(args: &RunArgs, config: &RunConfig) -> Result<Box<dyn experiment::Ca
         .map(|f| f.parse::<FaultConfig>().map_err(anyhow::Error::msg))
         .transpose()
         .context("--faults")?;
-    let mut link = address.open(std::time::Duration::from_secs(30))?;
+    let mut link: Box<dyn Link> = match address {
+        // A TCP connection ends with the car's process: open it again when the car is back.
+        LinkAddress::SlcanTcp(_) => {
+            Box::new(hil_mock::transport::reconnect::ReconnectingLink::open(
+                address,
+                std::time::Duration::from_secs(30),
+            )?)
+        }
+        _ => address.open(std::time::Duration::from_secs(30))?,
+    };
     if let Some(path) = &args.record {
         link = Box::new(RecordingLink::new(link, path, "can0")?);
     }

@@ -19,6 +19,7 @@ use hil_mock::flash::{FlashStore, PAGE_SIZE};
 use hil_mock::server::{LinkBus, Server};
 use hil_mock::transport::fault::{FaultConfig, FaultyLink};
 use hil_mock::transport::memory::MemoryLink;
+use hil_mock::transport::reconnect::ReconnectingLink;
 use hil_mock::transport::record::{RecordingLink, read_log};
 use hil_mock::transport::slcan::SlcanLink;
 use hil_mock::transport::udp::UdpLink;
@@ -248,9 +249,14 @@ struct Child9 {
 }
 
 fn spawn_server(flash: &Path, port: u16) -> Child9 {
+    spawn_server_on(flash, "udp-listen", port)
+}
+
+/// The same, listening with `scheme` (`udp-listen`, `slcan+tcp-listen`).
+fn spawn_server_on(flash: &Path, scheme: &str, port: u16) -> Child9 {
     let mut child = Command::new(env!("CARGO_BIN_EXE_hil_mock_server"))
         .args(["serve", "--link"])
-        .arg(format!("udp-listen://127.0.0.1:{port}"))
+        .arg(format!("{scheme}://127.0.0.1:{port}"))
         .arg("--flash")
         .arg(flash)
         .stdout(Stdio::piped())
@@ -359,6 +365,17 @@ impl<C: CarLink> CarLink for KillBeforeFeedback<'_, C> {
 
 #[test]
 fn sigkill_and_restart_at_several_points_lose_nothing() {
+    sigkill_and_restart("udp-listen");
+}
+
+#[test]
+fn sigkill_and_restart_over_slcan_tcp_lose_nothing() {
+    // The TCP connection dies with the car's process; the host's link opens it again.
+    sigkill_and_restart("slcan+tcp-listen");
+}
+
+/// Runs with `hil_mock` serving on `scheme`, killed with SIGKILL and restarted at several points.
+fn sigkill_and_restart(scheme: &'static str) {
     // Killed while the run goes on (after these steps: wherever the next step is when the
     // signal lands), and between an action and the feedback about it (before these feedbacks:
     // the restarted car has forgotten the tick and the host shows it again).
@@ -369,9 +386,14 @@ fn sigkill_and_restart_at_several_points_lose_nothing() {
     let local = experiment::run(&config).unwrap();
     let dir = tempfile::tempdir().unwrap();
     let flash = dir.path().join("car.flash");
-    let server = spawn_server(&flash, 0);
+    let server = spawn_server_on(&flash, scheme, 0);
     let port = server.port;
-    let host = UdpLink::connect(SocketAddrV4::new(Ipv4Addr::LOCALHOST, port)).unwrap();
+    let host: Box<dyn Link> = if scheme == "udp-listen" {
+        Box::new(UdpLink::connect(SocketAddrV4::new(Ipv4Addr::LOCALHOST, port)).unwrap())
+    } else {
+        let address: LinkAddress = format!("slcan+tcp://127.0.0.1:{port}").parse().unwrap();
+        Box::new(ReconnectingLink::open(address, Duration::from_secs(30)).unwrap())
+    };
 
     // A supervisor kills the server whenever a kill is requested and starts it again on the
     // same port and flash. The run goes on meanwhile, so each kill lands wherever the run is:
@@ -391,7 +413,7 @@ fn sigkill_and_restart_at_several_points_lose_nothing() {
             }
             server.kill9();
             log.push_str(&server.stderr.lock().unwrap());
-            server = spawn_server(&flash_path, port);
+            server = spawn_server_on(&flash_path, scheme, port);
             d.fetch_add(1, Ordering::Relaxed);
         }
         server.kill9();
@@ -426,6 +448,11 @@ fn sigkill_and_restart_at_several_points_lose_nothing() {
     assert_eq!(done.load(Ordering::Relaxed), KILLS as u32);
     assert!(remote.stats().reobserved >= FEEDBACK_KILLS.len() as u64);
     assert_same(&local, &report, "killed and restarted");
+    if scheme != "udp-listen" {
+        // Each kill closed the connection and the host opened it again.
+        let link = remote.link().describe();
+        assert!(link.contains(&format!("reopened {KILLS} times")), "{link}");
+    }
     // Every restart found what the previous process wrote (the configuration at least).
     assert_eq!(log.matches("restored generation").count(), KILLS, "{log}");
     // The flash holds the final learner.

@@ -14,12 +14,14 @@
 //!
 //! [`memory::MemoryLink::pair`] gives two connected in-process ends for tests.
 //! Middleware wraps any link: [`fault::FaultyLink`] (seeded drop, corruption, duplication,
-//! reordering, delay) and [`record::RecordingLink`] (a candump log of every frame).
+//! reordering, delay), [`record::RecordingLink`] (a candump log of every frame) and
+//! [`reconnect::ReconnectingLink`] (reopens a connection the peer closed, e.g. a restarted car).
 //!
 //! Every network transport binds or connects to 127.0.0.1 only: any other address is refused.
 
 pub mod fault;
 pub mod memory;
+pub mod reconnect;
 pub mod record;
 pub mod slcan;
 #[cfg(feature = "socketcan")]
