@@ -9,7 +9,7 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use firmware_core::{Learner, LearnerParams};
+use firmware_core::{Learner, ValidLearnerParams};
 use protocol::can::{CanBus, CanFrame};
 use protocol::car::{CarConfig, CarNode, Persist, Persisted};
 
@@ -216,12 +216,7 @@ fn transient(r: Result<(), LinkError>) -> Result<(), LinkError> {
 
 /// The learner a server starts with when nothing is persisted (the host configures its own).
 pub fn fresh_learner() -> Learner {
-    // The default parameters are valid (checked by firmware-core's tests).
-    Learner::new(
-        LearnerParams::default()
-            .check()
-            .unwrap_or_else(|_| unreachable!("the default learner parameters are valid")),
-    )
+    Learner::new(ValidLearnerParams::DEFAULT)
 }
 
 #[cfg(test)]

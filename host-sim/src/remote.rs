@@ -17,7 +17,7 @@
 //! The car answers an observation with a stop whose mask is empty in two cases: every trajectory
 //! collides, or its watchdog fired (the observation or its answer took more than its watchdog
 //! time to get through). The two are the same bytes; [`RemoteCar`] tells them apart by evaluating
-//! the observation itself (the same `firmware-core` evaluator, so the same mask): a stop for an
+//! the observation itself when a stop comes (the same `firmware-core` evaluator, so the same mask): a stop for an
 //! observation that leaves some trajectory free is the watchdog's, and is ignored.
 //!
 //! ```
@@ -117,9 +117,32 @@ pub struct RemoteCar<L: Link> {
     next_seq: u8,
     /// The last tick acted in: its observation and the decision.
     last: Option<(u32, Observation, Decision)>,
-    evaluator: Box<Evaluator>,
-    table: Box<FeatureTable>,
+    /// Tells a watchdog stop from a real one; taken out while an observation is exchanged.
+    stops: Option<Box<StopCheck>>,
     stats: RemoteStats,
+}
+
+/// The car's evaluator on the host, run only when the car answers with a stop.
+struct StopCheck {
+    evaluator: Evaluator,
+    table: FeatureTable,
+}
+
+impl StopCheck {
+    fn new() -> Box<Self> {
+        Box::new(Self {
+            evaluator: Evaluator::new(),
+            table: FeatureTable::ZERO,
+        })
+    }
+
+    /// Whether a stop for `obs` is the car's watchdog: the observation leaves some trajectory
+    /// free, so the car's own answer would not be a stop (the same evaluator, the same mask).
+    fn is_watchdog(&mut self, obs: &Observation) -> bool {
+        self.evaluator
+            .evaluate(obs, &mut self.table)
+            .is_ok_and(|mask| !mask.is_empty())
+    }
 }
 
 impl<L: Link> std::fmt::Debug for RemoteCar<L> {
@@ -156,8 +179,7 @@ impl<L: Link> RemoteCar<L> {
             session,
             next_seq: 0,
             last: None,
-            evaluator: Box::new(Evaluator::new()),
-            table: Box::new(FeatureTable::ZERO),
+            stops: Some(StopCheck::new()),
             stats: RemoteStats::default(),
         }
     }
@@ -261,16 +283,15 @@ impl<L: Link> RemoteCar<L> {
     }
 
     fn observe(&mut self, tick: u32, obs: &Observation) -> Result<Decision> {
-        // The car's evaluator gives the same mask: a stop despite a free trajectory is the
-        // car's watchdog, not its answer.
-        let local = self.evaluator.evaluate(obs, &mut self.table).ok();
         let request = Message::Observation(ObservationMessage {
             tick,
             observation: obs.clone(),
         });
-        self.exchange(&format!("tick {tick}"), &request, |m, stats| match m {
+        let mut stops = self.stops.take().unwrap_or_else(StopCheck::new);
+        let decision = self.exchange(&format!("tick {tick}"), &request, |m, stats| match m {
             Message::Action(a) if a.tick == tick => {
-                if a.track.is_none() && local.is_some_and(|mask| !mask.is_empty()) {
+                // A stop despite a free trajectory is the car's watchdog, not its answer.
+                if a.track.is_none() && stops.is_watchdog(obs) {
                     stats.watchdog_stops += 1;
                     return Ok(Answer::Ignore);
                 }
@@ -284,7 +305,9 @@ impl<L: Link> RemoteCar<L> {
                 bail!("tick {tick}: observation refused by the car")
             }
             _ => Ok(Answer::Ignore),
-        })
+        });
+        self.stops = Some(stops);
+        decision
     }
 }
 

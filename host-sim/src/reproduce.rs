@@ -785,6 +785,44 @@ fn per_step_csv(head: &str, rows: &[(String, &Aggregate)]) -> String {
     out
 }
 
+/// One experiment's per-step CSV (`NAME.csv`, keyed by `key`) and its figure (`figures/NAME`):
+/// latent loss and corrections of the settings `on_figure` picks, labelled "KEY VALUE".
+#[expect(
+    clippy::too_many_arguments,
+    reason = "one call per experiment, every argument named"
+)]
+fn write_curves(
+    out: &Path,
+    figs: &Path,
+    name: &str,
+    title: &str,
+    aggs: &[&Aggregate],
+    key: &str,
+    value: impl Fn(&Aggregate) -> String,
+    on_figure: impl Fn(&Aggregate) -> bool,
+) -> Result<()> {
+    let rows: Vec<(String, &Aggregate)> = aggs.iter().map(|a| (value(a), *a)).collect();
+    write_file(
+        &out.join(format!("{name}.csv")),
+        per_step_csv(key, &rows).as_bytes(),
+    )?;
+    let curves: Vec<(String, &Aggregate)> = aggs
+        .iter()
+        .filter(|a| on_figure(a))
+        .map(|a| (format!("{key} {}", value(a)), *a))
+        .collect();
+    figure::write_chart(
+        &figs.join(name),
+        title,
+        &[
+            loss_panel("latent loss", &curves),
+            corrections_panel("corrections", &curves),
+        ],
+        2,
+        (600, 420),
+    )
+}
+
 fn summary_csv(aggs: &[Aggregate]) -> String {
     let mut out = String::from(
         "experiment,household,feedback,sigma,threshold,trials,first_tenth_loss_mean,first_tenth_loss_std,final_loss_mean,final_loss_std,corrections_mean,corrections_std,first_tenth_corrections_mean,last_tenth_corrections_mean\n",
@@ -1030,28 +1068,15 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
 
     // Noise.
     let noise = find(Group::Noise, &|_| true);
-    let rows: Vec<(String, &Aggregate)> = noise
-        .iter()
-        .map(|a| (format!("{}", a.setting.noise), *a))
-        .collect();
-    write_file(
-        &out.join("noise.csv"),
-        per_step_csv("sigma", &rows).as_bytes(),
-    )?;
-    let curves: Vec<(String, &Aggregate)> = noise
-        .iter()
-        .filter(|a| NOISE_CURVES.contains(&a.setting.noise))
-        .map(|a| (format!("sigma {}", a.setting.noise), *a))
-        .collect();
-    figure::write_chart(
-        &figs.join("noise"),
+    write_curves(
+        out,
+        &figs,
+        "noise",
         "Learning under noisy feedback: doors, action feedback, threshold 1.0",
-        &[
-            loss_panel("latent loss", &curves),
-            corrections_panel("corrections", &curves),
-        ],
-        2,
-        (600, 420),
+        &noise,
+        "sigma",
+        |a| a.setting.noise.to_string(),
+        |a| NOISE_CURVES.contains(&a.setting.noise),
     )?;
     let mut sweep = String::from(
         "sigma,trials,final_latent_loss_mean,final_latent_loss_std,corrections_mean,corrections_std\n",
@@ -1111,27 +1136,15 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
 
     // Thresholds.
     let thr = find(Group::Thresholds, &|_| true);
-    let rows: Vec<(String, &Aggregate)> = thr
-        .iter()
-        .map(|a| (format!("{}", a.setting.threshold), *a))
-        .collect();
-    write_file(
-        &out.join("thresholds.csv"),
-        per_step_csv("threshold", &rows).as_bytes(),
-    )?;
-    let curves: Vec<(String, &Aggregate)> = thr
-        .iter()
-        .map(|a| (format!("threshold {}", a.setting.threshold), *a))
-        .collect();
-    figure::write_chart(
-        &figs.join("thresholds"),
+    write_curves(
+        out,
+        &figs,
+        "thresholds",
         "Teacher thresholds: stairs-chairs, action feedback",
-        &[
-            loss_panel("latent loss", &curves),
-            corrections_panel("corrections", &curves),
-        ],
-        2,
-        (600, 420),
+        &thr,
+        "threshold",
+        |a| a.setting.threshold.to_string(),
+        |_| true,
     )?;
     write_file(&out.join("summary.csv"), summary_csv(&aggs).as_bytes())?;
 

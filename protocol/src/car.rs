@@ -71,7 +71,7 @@
 use core::fmt;
 
 use firmware_core::agent::Agent;
-use firmware_core::{Learner, LearnerSnapshot, SnapshotError};
+use firmware_core::{Learner, LearnerSnapshot, SnapshotError, ValidLearnerParams};
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
@@ -229,10 +229,8 @@ impl CarNode {
     /// A node continuing from `state` (read back from flash): its learner, session and dedupe
     /// window; no recent ticks; stopped.
     pub fn restore(config: CarConfig, state: &Persisted) -> Result<Self, RestoreError> {
-        let learner = Learner::restore(&state.snapshot).map_err(RestoreError::Snapshot)?;
-        let mut node = Self::new(config, learner);
-        node.session = state.session;
-        node.receiver = state.receiver.clone();
+        let mut node = Self::new(config, Learner::new(ValidLearnerParams::DEFAULT));
+        node.load(state)?;
         Ok(node)
     }
 
@@ -242,14 +240,19 @@ impl CarNode {
     pub fn load(&mut self, state: &Persisted) -> Result<(), RestoreError> {
         let learner = Learner::restore(&state.snapshot).map_err(RestoreError::Snapshot)?;
         self.agent.set_learner(learner);
-        self.agent.forget_ticks();
+        self.stand();
         self.inbox.reset();
         self.receiver = state.receiver.clone();
         self.session = state.session;
-        self.watched = None;
-        self.stopped = true;
         self.dirty = false;
         Ok(())
+    }
+
+    /// Forgets the recent ticks and disarms the watchdog: stopped until the next observation.
+    fn stand(&mut self) {
+        self.agent.forget_ticks();
+        self.watched = None;
+        self.stopped = true;
     }
 
     /// The state to persist now.
@@ -340,9 +343,7 @@ impl CarNode {
                 self.send(bus, &Message::Heartbeat(Heartbeat { counter }))
             }
             Message::Reset => {
-                self.stopped = true;
-                self.watched = None;
-                self.agent.forget_ticks();
+                self.stand();
                 self.receiver.reset();
                 Ok(())
             }
@@ -410,11 +411,9 @@ impl CarNode {
                 return self.report(ErrorCode::Params, None, bus);
             };
             self.agent.set_learner(learner);
-            self.agent.forget_ticks();
+            self.stand();
             self.receiver.reset();
             self.session = Some(c.session);
-            self.watched = None;
-            self.stopped = true;
             self.dirty = true;
         }
         if !self.commit(store) {

@@ -1018,6 +1018,17 @@ mod tests {
             .prefer(Feature::Path)
             .prefer(Feature::Right);
         let params = LearnerParams::paper().with_radius(1.0);
+        // The largest snapshot: every varint at its longest.
+        let snapshot = LearnerSnapshot {
+            version: u16::MAX,
+            params,
+            state: LearnerState {
+                iterate: [1.0; 6],
+                average: [1.0; 6],
+                accumulator: [1.0; 6],
+                steps: u32::MAX,
+            },
+        };
         let worst = [
             (
                 Message::Observation(ObservationMessage {
@@ -1049,32 +1060,11 @@ mod tests {
                 7,
             ),
             (Message::Heartbeat(Heartbeat { counter: u16::MAX }), 7),
-            (
-                Message::Weights(LearnerSnapshot {
-                    version: u16::MAX,
-                    params,
-                    state: LearnerState {
-                        iterate: [1.0; 6],
-                        average: [1.0; 6],
-                        accumulator: [1.0; 6],
-                        steps: u32::MAX,
-                    },
-                }),
-                118,
-            ),
+            (Message::Weights(snapshot), 118),
             (
                 Message::Configure(ConfigureMessage {
                     session: u8::MAX,
-                    snapshot: LearnerSnapshot {
-                        version: u16::MAX,
-                        params,
-                        state: LearnerState {
-                            iterate: [1.0; 6],
-                            average: [1.0; 6],
-                            accumulator: [1.0; 6],
-                            steps: u32::MAX,
-                        },
-                    },
+                    snapshot,
                 }),
                 119,
             ),
