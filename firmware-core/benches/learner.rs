@@ -4,6 +4,7 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use firmware_core::observation::PathReference;
 use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, Feature, FeatureTable, Feedback, Learner, LearnerKind,
     LearnerParams, OnlineLearner, PreferenceFeedback, Round, SemanticFeedback, policy,
@@ -38,6 +39,13 @@ fn bench_select(c: &mut Criterion) {
     }
     group.finish();
 }
+
+/// The path 1 m straight ahead: statements about the path are judged against it.
+const AHEAD: PathReference = PathReference {
+    x: 1.0,
+    y: 0.0,
+    heading: 0.0,
+};
 
 fn bench_update(c: &mut Criterion) {
     let t = table(2);
@@ -78,7 +86,9 @@ fn bench_update(c: &mut Criterion) {
                 b.iter_batched_ref(
                     || learner,
                     |l| {
-                        let round = Round::new(black_box(&t), ActionMask::ALL, chosen).unwrap();
+                        let round = Round::new(black_box(&t), ActionMask::ALL, chosen)
+                            .and_then(|r| r.with_reference(AHEAD))
+                            .unwrap();
                         l.learn(&round, black_box(fb)).unwrap()
                     },
                     criterion::BatchSize::SmallInput,

@@ -1,7 +1,7 @@
 //! The car's side of a control tick: observe, act, and learn from feedback about a recent tick.
 //!
-//! An [`Agent`] owns the [`Evaluator`], the [`Learner`] and the features of the last
-//! [`TICK_HISTORY`] ticks, so that feedback arriving after the next observation (a slow link, a
+//! An [`Agent`] owns the [`Evaluator`], the [`Learner`] and the features and path reference of
+//! the last [`TICK_HISTORY`] ticks, so that feedback arriving after the next observation (a slow link, a
 //! retransmission) is still judged against the tick it refers to.
 //!
 //! ```
@@ -25,7 +25,7 @@ use crate::evaluator::Evaluator;
 use crate::feature::FeatureTable;
 use crate::feedback::{Feedback, Round};
 use crate::learner::{Learner, OnlineLearner, Outcome};
-use crate::observation::{Observation, ObservationError};
+use crate::observation::{Observation, ObservationError, PathReference};
 
 /// Number of past ticks feedback may refer to.
 pub const TICK_HISTORY: usize = 4;
@@ -72,6 +72,10 @@ struct TickRecord {
     features: FeatureTable,
     allowed: ActionMask,
     chosen: ActionIndex,
+    /// The tick's path reference: statements about the path are judged by the cross-track
+    /// error of each trajectory's end against it (12 bytes, where a second feature table
+    /// would take 1.5 KiB).
+    reference: PathReference,
 }
 
 impl TickRecord {
@@ -80,6 +84,11 @@ impl TickRecord {
         features: FeatureTable::ZERO,
         allowed: ActionMask::NONE,
         chosen: ActionIndex::FIRST,
+        reference: PathReference {
+            x: 0.0,
+            y: 0.0,
+            heading: 0.0,
+        },
     };
 }
 
@@ -137,6 +146,7 @@ impl Agent {
                 record.tick = Some(tick);
                 record.allowed = allowed;
                 record.chosen = chosen;
+                record.reference = obs.reference;
                 if slot == *next {
                     *next = (*next + 1) % TICK_HISTORY;
                 }
@@ -167,6 +177,7 @@ impl Agent {
             .find(|r| r.tick == Some(tick))
             .ok_or(FeedbackError::UnknownTick(tick))?;
         let round = Round::new(&record.features, record.allowed, record.chosen)
+            .and_then(|r| r.with_reference(record.reference))
             .map_err(FeedbackError::Learn)?;
         self.learner
             .learn(&round, feedback)
@@ -212,6 +223,25 @@ mod tests {
             ag.feedback(5, &fb(3)).unwrap_err(),
             FeedbackError::UnknownTick(5)
         );
+    }
+
+    #[test]
+    fn a_path_statement_is_judged_against_its_own_tick_s_path_reference() {
+        use crate::feature::Feature;
+        use crate::feedback::SemanticFeedback;
+        let mut ag = agent();
+        let ahead = Observation::open_space();
+        let mut left = ahead.clone();
+        left.reference.y = 0.5;
+        // Zero weights drive straight. With the path straight ahead, straight is already on it:
+        // "stay on the path" has nothing better to point to. With the path half a metre to the
+        // left, the left turns are better: the learner steps.
+        ag.act(1, &ahead).unwrap();
+        ag.act(2, &left).unwrap();
+        let stay = Feedback::Semantic(SemanticFeedback::new().prefer(Feature::Path));
+        assert!(!ag.feedback(1, &stay).unwrap().stepped);
+        assert!(ag.feedback(2, &stay).unwrap().stepped);
+        assert!(ag.learner().weights() != &[0.0; crate::FEATURE_COUNT]);
     }
 
     #[test]

@@ -26,6 +26,11 @@ pub enum LearnError {
     BadPseudoLoss,
     /// The update itself was refused.
     Update(UpdateError),
+    /// A statement about the path came for a round without a path reference (see
+    /// [`crate::Round::with_reference`]): the cross-track error it is judged by is unknown.
+    NoPathReference,
+    /// A round's path reference is not finite or out of its bounds.
+    BadPathReference,
 }
 
 impl fmt::Display for LearnError {
@@ -37,6 +42,12 @@ impl fmt::Display for LearnError {
             LearnError::DegenerateFeedback => f.write_str("the feedback carries no information"),
             LearnError::BadPseudoLoss => f.write_str("pseudo-loss not finite or out of bounds"),
             LearnError::Update(e) => write!(f, "update refused: {e}"),
+            LearnError::NoPathReference => {
+                f.write_str("a statement about the path needs the round's path reference")
+            }
+            LearnError::BadPathReference => {
+                f.write_str("path reference not finite or out of bounds")
+            }
         }
     }
 }

@@ -86,7 +86,7 @@ use crate::lattice::{
     BEAM_COS, BEAM_SIN, MAX_SAMPLE_RHO, OBSTACLE_CLIP, SAMPLE_COUNT, SAMPLE_OF, SAMPLE_POINTS,
     SAMPLE_RHO, SAMPLE_WINDOW, SAMPLES, SAMPLES_BY_RHO, SCAN_BEAMS, TRAJECTORIES, UNIQUE_SAMPLES,
 };
-use crate::observation::{Observation, ObservationError, SemanticClass};
+use crate::observation::{Observation, ObservationError, PathReference, SemanticClass};
 
 /// Clearances to semantic objects are clipped at this distance (m).
 pub const SEMANTIC_CLIP: f32 = 2.0;
@@ -383,16 +383,50 @@ const SAMPLE_SCALE: [f32; SAMPLES + 1] = {
     t
 };
 
+/// The along-track and cross-track offsets (m, signed: ahead and left positive) of the end `e`
+/// of a trajectory against the path reference `p`, whose heading's sine and cosine are `s`, `c`.
+#[inline]
+fn end_offsets(p: &PathReference, s: f32, c: f32, e: &crate::lattice::Pose) -> (f32, f32) {
+    let dx = e.x - p.x;
+    let dy = e.y - p.y;
+    (dx * c + dy * s, dy * c - dx * s)
+}
+
+/// The cross-track error `|cross|` (m) of every trajectory's end against the path reference: the
+/// distance from the end to the line through the reference point along the path's heading.
+///
+/// This is what a statement about the path ("stay on the path") judges (paper, section 6: the
+/// path by cross-track error; see [`crate::SemanticFeedback`]). The teacher on the host calls the
+/// same function, so both sides compare the same numbers. Exact (no root), not clipped.
+///
+/// ```
+/// use firmware_core::evaluator::cross_track_errors;
+/// use firmware_core::observation::PathReference;
+/// use firmware_core::ActionIndex;
+///
+/// // The path runs straight ahead along the car's axis: the straight trajectory is on it.
+/// let cross = cross_track_errors(&PathReference { x: 1.0, y: 0.0, heading: 0.0 });
+/// assert_eq!(cross[ActionIndex::FIRST.get()], 0.0);
+/// assert!(cross.iter().all(|&d| d >= 0.0));
+/// ```
+pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
+    let p = reference;
+    let (s, c) = (libm::sinf(p.heading), libm::cosf(p.heading));
+    let mut out = [0.0f32; MAX_ACTIONS];
+    for (d, t) in out.iter_mut().zip(TRAJECTORIES.iter()) {
+        let (_, cross) = end_offsets(p, s, c, &t.end());
+        *d = libm::fabsf(cross);
+    }
+    out
+}
+
 /// Path error and lateral offset of every trajectory's end.
 fn path_and_side(obs: &Observation, rows: &mut [Features; MAX_ACTIONS]) {
     let p = &obs.reference;
     let (s, c) = (libm::sinf(p.heading), libm::cosf(p.heading));
     for (row, t) in rows.iter_mut().zip(TRAJECTORIES.iter()) {
         let e = t.end();
-        let dx = e.x - p.x;
-        let dy = e.y - p.y;
-        let along = dx * c + dy * s;
-        let cross = dy * c - dx * s;
+        let (along, cross) = end_offsets(p, s, c, &e);
         let error = libm::fabsf(along) + libm::fabsf(cross);
         row[Feature::Path.index()] = if error < PATH_CLIP { error } else { PATH_CLIP };
         row[Feature::Right.index()] = -RIGHT_SCALE * e.y;

@@ -9,7 +9,15 @@
 //! |---|---|
 //! | [`ActionFeedback`] (the teacher's action `a*`) | 0 for `a*`, [`WRONG_ACTION_LOSS`] for every other action |
 //! | [`PreferenceFeedback`] (`a_p` preferred over `a_np`) | `‖φ_p − φ_a‖ − ‖φ_np − φ_a‖` |
-//! | [`SemanticFeedback`] (statements such as "avoid doors") | per statement: 0 for an action that does strictly better than the learner's choice on the statement's feature, [`SEMANTIC_LOSS`] otherwise; statements add up |
+//! | [`SemanticFeedback`] (statements such as "avoid doors") | per statement: 0 for an action that does strictly better than the learner's choice on the statement's quantity, [`SEMANTIC_LOSS`] otherwise; statements add up |
+//!
+//! A statement's *quantity* is its feature's value, except for a statement about the path ("stay
+//! on the path"): the paper judges the path by **cross-track error**, so such a statement compares
+//! the cross-track error of each trajectory's end against the round's path reference
+//! ([`crate::evaluator::cross_track_errors`]), not [`Feature::Path`] (which adds the along-track
+//! error). A round learns its path reference with [`Round::with_reference`] (the
+//! [`crate::agent::Agent`] remembers each tick's); a statement about the path in a round without
+//! one is refused ([`LearnError::NoPathReference`]).
 //!
 //! No correction means no pseudo-loss and no update: there is nothing to call.
 //!
@@ -34,7 +42,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
 use crate::error::LearnError;
+use crate::evaluator::cross_track_errors;
 use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
+use crate::observation::{PathReference, REFERENCE_COORDINATE_BOUND};
 
 /// `Δ` of every action but the teacher's, for action feedback (the paper's value).
 pub const WRONG_ACTION_LOSS: f32 = 100.0;
@@ -45,13 +55,15 @@ pub const SEMANTIC_LOSS: f32 = 100.0;
 /// Largest magnitude a pseudo-loss entry may have before the shift.
 pub const PSEUDO_LOSS_BOUND: f32 = 1.0e6;
 
-/// The learner's side of one round: the features of the tick, the allowed actions and the action
-/// the learner chose. Feedback is always judged against a round.
+/// The learner's side of one round: the features of the tick, the allowed actions, the action
+/// the learner chose and, when known, the tick's path reference. Feedback is always judged
+/// against a round.
 #[derive(Clone, Copy, Debug)]
 pub struct Round<'a> {
     features: &'a FeatureTable,
     allowed: ActionMask,
     chosen: ActionIndex,
+    reference: Option<PathReference>,
 }
 
 impl<'a> Round<'a> {
@@ -73,7 +85,30 @@ impl<'a> Round<'a> {
             features,
             allowed,
             chosen,
+            reference: None,
         })
+    }
+
+    /// The round with the tick's path reference (from its observation), which statements about
+    /// the path are judged against. Refused ([`LearnError::BadPathReference`]) when a coordinate
+    /// is not finite or beyond [`REFERENCE_COORDINATE_BOUND`], or the heading is outside
+    /// `[−π, π]`: the bounds [`crate::observation::Observation::validate`] checks.
+    pub fn with_reference(mut self, reference: PathReference) -> Result<Self, LearnError> {
+        let ok = |v: f32, bound: f32| v.is_finite() && libm::fabsf(v) <= bound;
+        if !(ok(reference.x, REFERENCE_COORDINATE_BOUND)
+            && ok(reference.y, REFERENCE_COORDINATE_BOUND)
+            && ok(reference.heading, core::f32::consts::PI))
+        {
+            return Err(LearnError::BadPathReference);
+        }
+        self.reference = Some(reference);
+        Ok(self)
+    }
+
+    /// The tick's path reference, if the round has one.
+    #[inline]
+    pub fn reference(&self) -> Option<&PathReference> {
+        self.reference.as_ref()
     }
 
     /// The features of every action.
@@ -318,6 +353,9 @@ impl Statement {
 
 /// Semantic feedback: up to one statement per feature ("avoid doors", "stay on the path", ...).
 ///
+/// A statement about [`Feature::Path`] is judged by the cross-track error of each trajectory's
+/// end (see the module documentation), every other statement by its feature.
+///
 /// ```
 /// use firmware_core::{Feature, SemanticFeedback};
 /// let said = SemanticFeedback::new().avoid(Feature::Door).prefer(Feature::Path);
@@ -395,16 +433,28 @@ impl PseudoLossSource for SemanticFeedback {
         if self.is_empty() {
             return Err(LearnError::DegenerateFeedback);
         }
-        let chosen = round.phi(round.chosen());
+        // The path is judged by cross-track error: computed once, and only when a statement
+        // names it (before anything is written, so a refusal leaves `out` as it was).
+        let cross = match self.get(Feature::Path) {
+            Some(_) => Some(cross_track_errors(
+                round.reference().ok_or(LearnError::NoPathReference)?,
+            )),
+            None => None,
+        };
+        let chosen = round.chosen();
         for a in round.allowed() {
             out[a.get()] = 0.0;
         }
         for s in self.statements() {
             let f = s.subject.index();
-            let reference = chosen[f];
+            let quantity = |a: ActionIndex| match (&cross, s.subject) {
+                (Some(cross), Feature::Path) => cross[a.get()],
+                _ => round.phi(a)[f],
+            };
+            let reference = quantity(chosen);
             let higher = s.wants_higher();
             for a in round.allowed() {
-                let v = round.phi(a)[f];
+                let v = quantity(a);
                 let better = if higher { v > reference } else { v < reference };
                 if !better {
                     out[a.get()] += SEMANTIC_LOSS;

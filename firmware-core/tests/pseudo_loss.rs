@@ -2,10 +2,12 @@
 //! from the paper's formulas (sections 5 and 6). The expected numbers are worked out in f64 in
 //! the comments and compared with a tolerance where a square root is involved.
 
+use firmware_core::evaluator::cross_track_errors;
+use firmware_core::observation::PathReference;
 use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, FEATURE_COUNT, Feature, FeatureTable, LearnError,
     Learner, LearnerKind, LearnerParams, OnlineLearner, PreferenceFeedback, Round,
-    SemanticFeedback, learn, pseudo_loss, surrogate,
+    SemanticFeedback, lattice, learn, pseudo_loss, surrogate,
 };
 
 fn a(i: usize) -> ActionIndex {
@@ -60,13 +62,25 @@ fn preference_feedback_follows_the_norm_difference_shifted_to_zero() {
     assert_eq!(d[a(3)], 0.0, "forbidden entries stay 0");
 }
 
+/// The path straight ahead along the car's axis: the cross-track error of a trajectory is the
+/// magnitude of its end's `y` (0 for the straight action 0, positive for actions 1 and 2, the
+/// gentlest left turn and its mirror image, whose ends are equally far from the axis).
+const AHEAD: PathReference = PathReference {
+    x: 1.0,
+    y: 0.0,
+    heading: 0.0,
+};
+
 #[test]
 fn semantic_statements_add_up() {
     // Chosen a0. "Avoid doors": door clearance higher than φ0's 0 is better → a1 gets 0,
-    // a0 and a2 get 100. "Stay on the path": path error below φ0's 0 → nobody; all 100.
+    // a0 and a2 get 100. "Stay on the path": cross-track error below a0's 0 → nobody; all 100.
     // Sum (200, 100, 200) → shifted (100, 0, 100).
     let (t, m) = scene();
-    let round = Round::new(&t, m, a(0)).unwrap();
+    let round = Round::new(&t, m, a(0))
+        .unwrap()
+        .with_reference(AHEAD)
+        .unwrap();
     let said = SemanticFeedback::new()
         .avoid(Feature::Door)
         .prefer(Feature::Path);
@@ -79,9 +93,87 @@ fn semantic_statements_add_up() {
     // "Avoid the right" is "keep left": lower is better → nobody beats 0 → flat.
     let d = pseudo_loss(&SemanticFeedback::new().avoid(Feature::Right), &round).unwrap();
     assert_eq!(&d.values()[..3], &[0.0, 0.0, 0.0]);
-    // Approaching the path error's subject: "avoid the path" wants a higher error → a2.
+    // "Avoid the path" wants a higher cross-track error than a0's 0: a1 and a2 (the Path
+    // feature, 0 for a1, would have said a2 only).
     let d = pseudo_loss(&SemanticFeedback::new().avoid(Feature::Path), &round).unwrap();
-    assert_eq!(&d.values()[..3], &[100.0, 100.0, 0.0]);
+    assert_eq!(&d.values()[..3], &[100.0, 0.0, 0.0]);
+}
+
+#[test]
+fn the_path_statement_is_judged_by_cross_track_error_not_the_path_feature() {
+    let (t, m) = scene();
+    let cross = cross_track_errors(&AHEAD);
+    let end = |i: usize| lattice::trajectory(a(i)).end();
+    assert_eq!(cross[0], 0.0);
+    assert_eq!(cross[1], end(1).y.abs());
+    assert!(
+        cross[1] > 0.0 && cross[1] == cross[2],
+        "mirror images: {cross:?}"
+    );
+    // The Path feature says a0 (0) beats a2 (3); cross-track says a0 (0) beats a1 and a2. From
+    // a1, "stay on the path" points to a0 alone: a2's end is as far off as a1's.
+    let round = Round::new(&t, m, a(1))
+        .unwrap()
+        .with_reference(AHEAD)
+        .unwrap();
+    let d = pseudo_loss(&SemanticFeedback::new().prefer(Feature::Path), &round).unwrap();
+    assert_eq!(&d.values()[..3], &[0.0, 100.0, 100.0]);
+    // A path seen 0.3 m to the left, heading along the axis: cross-track |y_end − 0.3|.
+    let left = PathReference { y: 0.3, ..AHEAD };
+    let cross = cross_track_errors(&left);
+    for i in 0..3 {
+        assert!((cross[i] - (end(i).y - 0.3).abs()).abs() < 1e-6, "{i}");
+    }
+    // A path at right angles (heading π/2, through (1, 0)): cross-track is |x_end − 1|.
+    let across = PathReference {
+        heading: core::f32::consts::FRAC_PI_2,
+        ..AHEAD
+    };
+    let cross = cross_track_errors(&across);
+    for i in 0..3 {
+        assert!((cross[i] - (end(i).x - 1.0).abs()).abs() < 1e-6, "{i}");
+    }
+}
+
+#[test]
+fn a_path_statement_needs_a_valid_path_reference() {
+    let (t, m) = scene();
+    let bare = Round::new(&t, m, a(0)).unwrap();
+    assert_eq!(
+        pseudo_loss(&SemanticFeedback::new().prefer(Feature::Path), &bare),
+        Err(LearnError::NoPathReference)
+    );
+    // Other statements need none.
+    assert!(pseudo_loss(&SemanticFeedback::new().avoid(Feature::Door), &bare).is_ok());
+    for bad in [
+        PathReference {
+            x: f32::NAN,
+            ..AHEAD
+        },
+        PathReference { y: 6.0, ..AHEAD },
+        PathReference {
+            heading: 4.0,
+            ..AHEAD
+        },
+    ] {
+        assert_eq!(
+            bare.with_reference(bad).err(),
+            Some(LearnError::BadPathReference),
+            "{bad:?}"
+        );
+    }
+    // The learner is unchanged by a refused statement.
+    let mut l = Learner::new(LearnerParams::paper().check().unwrap());
+    let before = *l.weights();
+    assert_eq!(
+        learn(
+            &mut l,
+            &bare,
+            &SemanticFeedback::new().prefer(Feature::Path)
+        ),
+        Err(LearnError::NoPathReference)
+    );
+    assert_eq!(*l.weights(), before);
 }
 
 #[test]

@@ -2,6 +2,7 @@
 //! (Vec-based, straight from the formulas of the paper and DESIGN section 4), bit for bit on
 //! random streams; and finiteness of the weights for any in-bound input.
 
+use firmware_core::observation::PathReference;
 use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, FEATURE_BOUND, FEATURE_COUNT, Feature, FeatureTable,
     Feedback, Learner, LearnerKind, LearnerParams, MAX_ACTIONS, MAX_STEP, OnlineLearner, Polarity,
@@ -25,9 +26,22 @@ struct RefLearner {
 enum RefFeedback {
     Action(usize),
     Preference(usize, usize),
-    /// (feature, wants a higher value)
-    Semantic(Vec<(usize, bool)>),
+    /// (feature, wants a higher value), and the path reference (x, y, heading) a statement about
+    /// the path is judged against (by the cross-track error of each trajectory's end).
+    Semantic(Vec<(usize, bool)>, Option<(f32, f32, f32)>),
 }
+
+/// The cross-track error of trajectory `a`'s end against the path through `(x, y)` with heading
+/// `h`: the distance from the end to that line, `|(e − p) × (cos h, sin h)|`. The sine and cosine
+/// are `libm`'s, as the car's; everything else is written out here.
+fn rcross(a: usize, (x, y, h): (f32, f32, f32)) -> f32 {
+    let e = firmware_core::lattice::trajectory(ActionIndex::new(a).unwrap()).end();
+    let (s, c) = (libm::sinf(h), libm::cosf(h));
+    ((e.y - y) * c - (e.x - x) * s).abs()
+}
+
+/// The path feature's index, written out (the order of DESIGN section 5).
+const PATH: usize = 4;
 
 fn rdot(a: &[f32], b: &[f32]) -> f32 {
     let mut s = 0.0f32;
@@ -98,14 +112,15 @@ impl RefLearner {
                 RefFeedback::Preference(p, np) => {
                     rdist(&phi[*p], &phi[a]) - rdist(&phi[*np], &phi[a])
                 }
-                RefFeedback::Semantic(stmts) => {
+                RefFeedback::Semantic(stmts, reference) => {
                     let mut v = 0.0f32;
                     for &(f, higher) in stmts {
-                        let better = if higher {
-                            phi[a][f] > phi[chosen][f]
-                        } else {
-                            phi[a][f] < phi[chosen][f]
+                        let (va, vc) = match (f, reference) {
+                            (PATH, Some(r)) => (rcross(a, *r), rcross(chosen, *r)),
+                            (PATH, None) => return false,
+                            _ => (phi[a][f], phi[chosen][f]),
                         };
+                        let better = if higher { va > vc } else { va < vc };
                         if !better {
                             v += 100.0;
                         }
@@ -215,6 +230,7 @@ struct RoundSpec {
     i: u8,
     j: u8,
     statements: [u8; FEATURE_COUNT],
+    reference: Option<(f32, f32, f32)>,
 }
 
 fn feature_value() -> impl Strategy<Value = f32> {
@@ -238,15 +254,32 @@ fn round_spec() -> impl Strategy<Value = RoundSpec> {
         any::<u8>(),
         any::<u8>(),
         any::<[u8; FEATURE_COUNT]>(),
+        prop_oneof![
+            1 => Just(None),
+            3 => (-5.0f32..=5.0, -5.0f32..=5.0, -core::f32::consts::PI..=core::f32::consts::PI)
+                .prop_map(Some),
+        ],
     )
-        .prop_map(|(features, mask, kind, i, j, statements)| RoundSpec {
-            features,
-            mask,
-            kind,
-            i,
-            j,
-            statements,
-        })
+        .prop_map(
+            |(features, mask, kind, i, j, statements, reference)| RoundSpec {
+                features,
+                mask,
+                kind,
+                i,
+                j,
+                statements,
+                reference,
+            },
+        )
+}
+
+/// The round of `b` with the spec's path reference, if it has one.
+fn round<'a>(spec: &RoundSpec, b: &'a Built, chosen: ActionIndex) -> Round<'a> {
+    let r = Round::new(&b.table, b.mask, chosen).unwrap();
+    match spec.reference {
+        Some((x, y, heading)) => r.with_reference(PathReference { x, y, heading }).unwrap(),
+        None => r,
+    }
 }
 
 fn learner_params() -> impl Strategy<Value = LearnerParams> {
@@ -344,7 +377,7 @@ fn feedback(spec: &RoundSpec, allowed: &[usize], chosen: usize) -> (Feedback, Re
                 s = s.with(st);
                 r.push((f, st.wants_higher()));
             }
-            (s.into(), RefFeedback::Semantic(r))
+            (s.into(), RefFeedback::Semantic(r, spec.reference))
         }
     }
 }
@@ -366,10 +399,10 @@ proptest! {
             let chosen = learner.select(&b.table, b.mask).unwrap();
             prop_assert_eq!(chosen.get(), reference.select(&b.phi, &b.allowed));
             let (fb, rfb) = feedback(spec, &b.allowed, chosen.get());
-            let round = Round::new(&b.table, b.mask, chosen).unwrap();
+            let round = round(spec, &b, chosen);
             let got = learner.learn(&round, &fb);
             let degenerate = matches!(&rfb, RefFeedback::Preference(p, np) if p == np)
-                || matches!(&rfb, RefFeedback::Semantic(s) if s.is_empty());
+                || matches!(&rfb, RefFeedback::Semantic(s, _) if s.is_empty());
             if degenerate {
                 prop_assert!(got.is_err());
                 continue;
@@ -394,7 +427,7 @@ proptest! {
             let b = build(spec);
             let chosen = learner.select(&b.table, b.mask).unwrap();
             let (fb, _) = feedback(spec, &b.allowed, chosen.get());
-            let round = Round::new(&b.table, b.mask, chosen).unwrap();
+            let round = round(spec, &b, chosen);
             let before = learner;
             if learner.learn(&round, &fb).is_err() {
                 prop_assert_eq!(learner, before);
@@ -422,7 +455,7 @@ proptest! {
             let b = build(spec);
             let chosen = learner.select(&b.table, b.mask).unwrap();
             let (fb, _) = feedback(spec, &b.allowed, chosen.get());
-            let _ = learner.learn(&Round::new(&b.table, b.mask, chosen).unwrap(), &fb);
+            let _ = learner.learn(&round(spec, &b, chosen), &fb);
         }
         let bytes = postcard::to_allocvec(&learner.snapshot()).unwrap();
         let back: firmware_core::LearnerSnapshot = postcard::from_bytes(&bytes).unwrap();

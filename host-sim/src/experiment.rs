@@ -76,7 +76,7 @@ use firmware_core::{
 use crate::car::Pose;
 use crate::scenario::Scenario;
 use crate::sim::{Episode, ResetReason};
-use crate::teacher::{FeedbackKind, Teacher, TeacherSpec};
+use crate::teacher::{FeedbackKind, StatementSet, Teacher, TeacherSpec};
 
 /// The learner as the experiment sees it: on this machine or on the car's controller.
 ///
@@ -201,6 +201,10 @@ pub struct RunConfig {
     pub learner: LearnerParams,
     /// A seeded random offset of the start pose (None: the scenario's start, as `host-sim run`).
     pub start_jitter: Option<StartJitter>,
+    /// Overrides the statements of the scenario teacher's semantic feedback.
+    pub statements: Option<StatementSet>,
+    /// Overrides the scenario teacher's probability of a random answer.
+    pub random_answers: Option<f32>,
 }
 
 /// A small random offset of the start pose, drawn once per run from the run's seed, so that
@@ -270,6 +274,8 @@ impl RunConfig {
             noise: None,
             learner: LearnerParams::default(),
             start_jitter: None,
+            statements: None,
+            random_answers: None,
         }
     }
 
@@ -289,6 +295,12 @@ impl RunConfig {
         }
         if let Some(n) = self.noise {
             t.noise = n;
+        }
+        if let Some(s) = self.statements {
+            t.statements = s;
+        }
+        if let Some(p) = self.random_answers {
+            t.random_answers = p;
         }
         t
     }
@@ -310,6 +322,11 @@ impl RunConfig {
             t.noise.is_finite() && t.noise >= 0.0,
             "noise must be finite and >= 0, got {}",
             t.noise
+        );
+        ensure!(
+            (0.0..=1.0).contains(&t.random_answers),
+            "the probability of a random answer must be in [0, 1], got {}",
+            t.random_answers
         );
         if let Some(j) = self.start_jitter {
             ensure!(
@@ -476,6 +493,8 @@ impl RunReport {
                 "seed": self.seed,
                 "threshold": t.threshold,
                 "noise": t.noise,
+                "statements": t.statements.name(),
+                "random_answers": t.random_answers,
                 "teacher_preset": t.preset,
                 "teacher_weights": t.weights,
                 "learner": self.learner.kind.name(),

@@ -12,6 +12,7 @@ use firmware_core::{LearnerKind, LearnerParams};
 use host_sim::experiment::{self, InProcessLink, Mode, RunConfig};
 use host_sim::registry;
 use host_sim::synthetic::{self, SyntheticConfig};
+use host_sim::teacher::StatementSet;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
 #[derive(Parser, Debug)]
@@ -126,6 +127,15 @@ struct RunArgs {
     /// Step size (default: the learner's own: 0.01 for the OGD family, 0.1 AdaGrad, 1 coactive).
     #[arg(long, allow_negative_numbers = true)]
     step: Option<f32>,
+    /// What the semantic teacher says: paper (doors, stairs, chairs and the path by cross-track
+    /// error, the paper's teacher; the default) or rich (every feature the teacher weighs, also
+    /// obstacles and keep right).
+    #[arg(long, default_value = "paper", value_parser = parse_statements)]
+    statements: StatementSet,
+    /// Probability that a correction answers at random (a random action, statements towards a
+    /// random action, or a coin's preference), drawn from the run's seed. Default 0.
+    #[arg(long, allow_negative_numbers = true)]
+    random_answers: Option<f32>,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out")]
     out: PathBuf,
@@ -262,6 +272,11 @@ fn parse_kind(s: &str) -> Result<LearnerKind, String> {
     })
 }
 
+fn parse_statements(s: &str) -> Result<StatementSet, String> {
+    StatementSet::from_name(s)
+        .ok_or_else(|| format!("unknown statement set '{s}', expected paper or rich"))
+}
+
 fn parse_mode(s: &str) -> Result<Mode, String> {
     Mode::from_name(s).ok_or_else(|| {
         format!("unknown feedback '{s}', expected one of action, preference, semantic, bc, teacher")
@@ -281,6 +296,8 @@ fn run_config(args: &RunArgs) -> Result<RunConfig> {
         threshold: args.threshold,
         noise: args.noise,
         learner,
+        statements: Some(args.statements),
+        random_answers: args.random_answers,
         ..RunConfig::new(Arc::new(scenario))
     };
     config.check()?;

@@ -478,12 +478,7 @@ fn parse_teacher(raw: Option<RawTeacher>, path: &Path) -> Result<TeacherSpec, Sc
             if weights.iter().all(|&x| x == 0.0) {
                 return Err(err(path, "teacher.weights", "must not all be zero"));
             }
-            TeacherSpec {
-                preset: None,
-                weights,
-                threshold: teacher::DEFAULT_THRESHOLD,
-                noise: 0.0,
-            }
+            TeacherSpec::with_weights(None, weights)
         }
     };
     if let Some(t) = raw.threshold {

@@ -16,12 +16,37 @@
 //! * action: `ã`;
 //! * preference: the learner's action against another allowed action drawn uniformly; the teacher
 //!   prefers the one of lower `L̃` (equal `L̃`: no feedback);
-//! * semantic: for every feature the teacher weighs (`w*_f ≠ 0`, Path and Right included), it
-//!   compares `ã` with the learner's action on that feature and says the statement that points
-//!   from the learner's value towards `ã`'s: a higher door clearance is "avoid doors", a lower
-//!   path error is "stay on the path", a more-right end is "keep right" (paper, section 6:
-//!   "if they prefer the object … (vice versa for avoiding)"). Features on which both are equal
-//!   say nothing; if nothing differs there is no feedback.
+//! * semantic: statements about the subjects of its [`StatementSet`]. For each subject it compares
+//!   `ã` with the learner's action and says the statement that points from the learner's value
+//!   towards `ã`'s: a higher door clearance is "avoid doors", a lower cross-track error is "stay
+//!   on the path", a more-right end is "keep right" (paper, section 6: "If they prefer the
+//!   object … (vice versa for avoiding objects)"). Subjects on which both are equal say nothing;
+//!   if nothing differs there is no feedback. The path is judged by the **cross-track error** of
+//!   each trajectory's end ([`cross_track_errors`], the function the car's pseudo-loss uses), as
+//!   the paper says, never by the Path feature (which adds the along-track error).
+//!
+//! # Statement sets
+//!
+//! * [`StatementSet::Paper`] (the default, and the reproduction's): doors, stairs, chairs and the
+//!   path, whatever the teacher's weights, as the paper's teacher: "we determine if the teacher's
+//!   action features prefer/avoid an action closer/further from semantic objects as compared to
+//!   the learner […] We also include the path (via cross track error) […] Our pseudo loss is the
+//!   sum of all the semantic losses (doors, stairs, chairs, and path)." A class the household
+//!   has no object of reads the same for every action and says nothing.
+//! * [`StatementSet::Rich`] (`host-sim run --statements rich`): every feature the teacher weighs
+//!   (`w*_f ≠ 0`), so also obstacles ("keep off the walls") and the right-hand side ("keep
+//!   right"). More informative than the paper's teacher, so not the paper's experiment.
+//!
+//! # Random answers
+//!
+//! With probability `p` ([`TeacherSpec::random_answers`], default 0) a correction answers as if
+//! the teacher's choice were a uniformly drawn allowed action `r` instead of `ã`: action feedback
+//! names `r` (nothing when `r` is the learner's own), semantic statements point towards `r`, and a
+//! preference is a fair coin's. One uniform draw per correction decides, from the teacher's
+//! generator, then one draw of `r` (or of the coin); with `p = 0` nothing is drawn, so the runs of
+//! a teacher without random answers are unchanged. This is the noise model of the synthetic
+//! teacher (`host-sim demo --noise`) and of `firmware-core/tests/learning.rs`, carried to the
+//! households (`host-sim learners` uses `p = 0.2`).
 //!
 //! # Presets
 //!
@@ -50,11 +75,11 @@
 //! passes doors with losses of several units, the teacher corrects it, and action feedback lowers
 //! the loss to a fifth (see `tests/learning.rs`), as in the paper's avoid-doors task.
 
-use firmware_core::evaluator::Evaluator;
+use firmware_core::evaluator::{Evaluator, cross_track_errors};
 use firmware_core::observation::{Observation, ObservationError};
 use firmware_core::{
-    ActionFeedback, ActionIndex, ActionMask, FEATURE_COUNT, Feature, FeatureTable, Feedback,
-    MAX_ACTIONS, Polarity, PreferenceFeedback, SemanticFeedback, Statement, Weights, dot, policy,
+    ActionFeedback, ActionIndex, ActionMask, Feature, FeatureTable, Feedback, MAX_ACTIONS,
+    Polarity, PreferenceFeedback, SemanticFeedback, Statement, Weights, dot, policy,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -98,7 +123,51 @@ pub fn preset(name: &str) -> Option<&'static Preset> {
 /// Default correction threshold on the perceived latent loss.
 pub const DEFAULT_THRESHOLD: f32 = 1.0;
 
-/// What a teacher is: weights, threshold, noise.
+/// Which statements a semantic teacher says (see the module documentation).
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
+pub enum StatementSet {
+    /// The paper's: doors, stairs, chairs and the path (by cross-track error).
+    #[default]
+    Paper,
+    /// Every feature the teacher weighs: also obstacles and the right-hand side.
+    Rich,
+}
+
+impl StatementSet {
+    /// Both sets.
+    pub const ALL: [StatementSet; 2] = [StatementSet::Paper, StatementSet::Rich];
+
+    /// Its name on the command line: paper, rich.
+    pub const fn name(self) -> &'static str {
+        match self {
+            StatementSet::Paper => "paper",
+            StatementSet::Rich => "rich",
+        }
+    }
+
+    /// The set called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|s| s.name() == name)
+    }
+
+    /// The subjects a teacher with `weights` may speak of, in feature order.
+    pub fn subjects(self, weights: &Weights) -> impl Iterator<Item = Feature> + '_ {
+        Feature::ALL.into_iter().filter(move |&f| match self {
+            StatementSet::Paper => PAPER_SUBJECTS.contains(&f),
+            StatementSet::Rich => weights[f.index()] != 0.0,
+        })
+    }
+}
+
+/// The subjects of the paper's semantic teacher: doors, stairs, chairs and the path.
+pub const PAPER_SUBJECTS: [Feature; 4] = [
+    Feature::Door,
+    Feature::Stairs,
+    Feature::Chair,
+    Feature::Path,
+];
+
+/// What a teacher is: weights, threshold, noise, statements, random answers.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TeacherSpec {
     /// The preset the weights came from, if any.
@@ -109,16 +178,30 @@ pub struct TeacherSpec {
     pub threshold: f32,
     /// Standard deviation of the Gaussian noise on every perceived latent loss (≥ 0).
     pub noise: f32,
+    /// What it says when it gives semantic feedback.
+    pub statements: StatementSet,
+    /// Probability that a correction answers at random (in `[0, 1]`; see the module
+    /// documentation).
+    pub random_answers: f32,
 }
 
 impl TeacherSpec {
-    /// The teacher of a preset, default threshold, no noise.
+    /// The teacher of a preset, default threshold, no noise, the paper's statements, no random
+    /// answers.
     pub fn from_preset(p: &'static Preset) -> Self {
+        Self::with_weights(Some(p.name), p.weights)
+    }
+
+    /// A teacher of `weights`, default threshold, no noise, the paper's statements, no random
+    /// answers.
+    pub fn with_weights(preset: Option<&'static str>, weights: Weights) -> Self {
         Self {
-            preset: Some(p.name),
-            weights: p.weights,
+            preset,
+            weights,
             threshold: DEFAULT_THRESHOLD,
             noise: 0.0,
+            statements: StatementSet::Paper,
+            random_answers: 0.0,
         }
     }
 }
@@ -167,6 +250,9 @@ pub struct Judgement {
     pub perceived: [f32; MAX_ACTIONS],
     /// The teacher's own (perceived-best) choice `ã`.
     pub choice: Option<ActionIndex>,
+    /// Cross-track error of every action's end against the path reference (m), what a
+    /// statement about the path is judged by ([`cross_track_errors`]).
+    pub cross: [f32; MAX_ACTIONS],
 }
 
 impl Judgement {
@@ -234,6 +320,7 @@ impl Teacher {
             latent,
             perceived,
             choice: choice.map(|(a, _)| a),
+            cross: cross_track_errors(&obs.reference),
         })
     }
 
@@ -251,7 +338,22 @@ impl Teacher {
         j: &Judgement,
         chosen: ActionIndex,
     ) -> Option<Feedback> {
-        let choice = j.choice?;
+        let mut choice = j.choice?;
+        // A random answer (drawn only when the teacher gives them, so that the generator's
+        // stream of a teacher without them is unchanged).
+        let random =
+            self.spec.random_answers > 0.0 && self.rng.random::<f32>() < self.spec.random_answers;
+        let mut coin = None;
+        if random {
+            match kind {
+                FeedbackKind::Preference => coin = Some(self.rng.random::<bool>()),
+                _ => {
+                    let n = j.allowed.count();
+                    let k = self.rng.random_range(0..n) as usize;
+                    choice = j.allowed.iter().nth(k)?;
+                }
+            }
+        }
         match kind {
             FeedbackKind::Action => {
                 (choice != chosen).then_some(Feedback::Action(ActionFeedback { action: choice }))
@@ -265,7 +367,12 @@ impl Teacher {
                 }
                 let k = self.rng.random_range(0..n) as usize;
                 let other = others.iter().nth(k)?;
-                let (pc, po) = (j.perceived[chosen.get()], j.perceived[other.get()]);
+                let (pc, po) = match coin {
+                    // A fair coin: as if the chosen action's perceived loss were 0 or 1 and the
+                    // other's the opposite.
+                    Some(heads) => (f32::from(u8::from(!heads)), f32::from(u8::from(heads))),
+                    None => (j.perceived[chosen.get()], j.perceived[other.get()]),
+                };
                 if pc < po {
                     Some(Feedback::Preference(PreferenceFeedback {
                         preferred: chosen,
@@ -284,14 +391,13 @@ impl Teacher {
                 if choice == chosen {
                     return None;
                 }
-                let (t, l) = (&j.table[choice], &j.table[chosen]);
                 let mut said = SemanticFeedback::new();
-                for f in 0..FEATURE_COUNT {
-                    if self.spec.weights[f] == 0.0 || t[f] == l[f] {
+                for subject in self.spec.statements.subjects(&self.spec.weights) {
+                    let (t, l) = statement_quantities(j, subject, choice, chosen);
+                    if t == l {
                         continue;
                     }
-                    let subject = Feature::from_index(f)?;
-                    let wants_higher = t[f] > l[f];
+                    let wants_higher = t > l;
                     let polarity = if wants_higher == subject.grows_away() {
                         Polarity::Avoid
                     } else {
@@ -304,6 +410,20 @@ impl Teacher {
                 (!said.is_empty()).then_some(Feedback::Semantic(said))
             }
         }
+    }
+}
+
+/// The quantities of `subject` a statement compares for the teacher's action `t` and the
+/// learner's `l`: the cross-track error for the path, the feature otherwise.
+pub fn statement_quantities(
+    j: &Judgement,
+    subject: Feature,
+    t: ActionIndex,
+    l: ActionIndex,
+) -> (f32, f32) {
+    match subject {
+        Feature::Path => (j.cross[t.get()], j.cross[l.get()]),
+        f => (j.table[t][f.index()], j.table[l][f.index()]),
     }
 }
 
@@ -366,6 +486,152 @@ mod tests {
             }
         }
         assert_eq!(t.feedback(FeedbackKind::Action, &j, j.best.unwrap()), None);
+    }
+
+    /// A door, stairs and a chair around the car, a wall close on the right, the path ahead and
+    /// a little to the left: every quantity differs between most pairs of actions.
+    fn busy_scene() -> Observation {
+        use firmware_core::observation::SCAN_BEAMS;
+        let mut obs = door_ahead_left();
+        for (class, x, y) in [
+            (SemanticClass::Stairs, 1.5, -1.2),
+            (SemanticClass::Chair, 0.8, 1.4),
+        ] {
+            obs.objects
+                .push(SemanticObject {
+                    class,
+                    x,
+                    y,
+                    radius: 0.3,
+                })
+                .unwrap();
+        }
+        // A wall along y = −0.6 (the right-hand side).
+        for j in 0..SCAN_BEAMS {
+            let (_, s) = firmware_core::evaluator::beam_direction(j).unwrap();
+            if s < -0.1 {
+                obs.scan.ranges[j] = (0.6 / -s).min(10.0);
+            }
+        }
+        obs.reference.y = 0.2;
+        obs
+    }
+
+    fn statements(spec: TeacherSpec) -> Vec<Vec<Feature>> {
+        let mut t = Teacher::new(spec, 3);
+        let j = t.judge(&busy_scene()).unwrap();
+        j.allowed
+            .iter()
+            .filter_map(|a| match t.feedback(FeedbackKind::Semantic, &j, a) {
+                Some(Feedback::Semantic(s)) => Some(s.statements().map(|x| x.subject).collect()),
+                None => None,
+                other => panic!("{other:?}"),
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_paper_s_semantic_teacher_speaks_of_doors_stairs_chairs_and_the_path_only() {
+        // A teacher that weighs every feature, obstacles and the right-hand side included.
+        let all = TeacherSpec::with_weights(None, [2.5, 5.0, 5.0, 5.0, -10.0, 0.75]);
+        let paper = statements(all);
+        assert!(!paper.is_empty());
+        let mut seen = std::collections::BTreeSet::new();
+        for said in &paper {
+            assert!(said.iter().all(|f| PAPER_SUBJECTS.contains(f)), "{said:?}");
+            seen.extend(said.iter().copied());
+        }
+        assert_eq!(
+            seen.into_iter().collect::<Vec<_>>(),
+            PAPER_SUBJECTS.to_vec(),
+            "each of the four is said somewhere in this scene"
+        );
+        // The rich set also says "keep off the walls" and "keep right".
+        let rich = statements(TeacherSpec {
+            statements: StatementSet::Rich,
+            ..all
+        });
+        let said: std::collections::BTreeSet<Feature> = rich.into_iter().flatten().collect();
+        assert!(said.contains(&Feature::Obstacles) && said.contains(&Feature::Right));
+        // The paper's four do not depend on the weights; the rich set's do.
+        let doors = TeacherSpec::from_preset(preset("doors").unwrap());
+        let said: std::collections::BTreeSet<Feature> =
+            statements(doors).into_iter().flatten().collect();
+        assert!(said.contains(&Feature::Stairs), "{said:?}");
+        let said: std::collections::BTreeSet<Feature> = statements(TeacherSpec {
+            statements: StatementSet::Rich,
+            ..doors
+        })
+        .into_iter()
+        .flatten()
+        .collect();
+        assert!(!said.contains(&Feature::Stairs) && !said.contains(&Feature::Right));
+    }
+
+    #[test]
+    fn the_path_statement_follows_cross_track_error() {
+        let spec = TeacherSpec::from_preset(preset("doors").unwrap());
+        let mut t = Teacher::new(spec, 3);
+        let obs = busy_scene();
+        let j = t.judge(&obs).unwrap();
+        assert_eq!(j.cross, cross_track_errors(&obs.reference));
+        let choice = j.choice.unwrap();
+        let mut checked = 0;
+        for a in j.allowed.iter().filter(|&a| a != choice) {
+            let Some(Feedback::Semantic(s)) = t.feedback(FeedbackKind::Semantic, &j, a) else {
+                continue;
+            };
+            let (ct, cl) = (j.cross[choice.get()], j.cross[a.get()]);
+            let want = match ct.partial_cmp(&cl).unwrap() {
+                std::cmp::Ordering::Less => Some(Polarity::Prefer),
+                std::cmp::Ordering::Greater => Some(Polarity::Avoid),
+                std::cmp::Ordering::Equal => None,
+            };
+            assert_eq!(s.get(Feature::Path), want, "action {a}");
+            checked += 1;
+        }
+        assert!(checked > 10);
+    }
+
+    #[test]
+    fn random_answers_are_seeded_and_as_frequent_as_asked() {
+        let spec = TeacherSpec {
+            random_answers: 0.2,
+            ..TeacherSpec::from_preset(preset("doors").unwrap())
+        };
+        let obs = door_ahead_left();
+        let answers = |seed| {
+            let mut t = Teacher::new(spec, seed);
+            let j = t.judge(&obs).unwrap();
+            let best = j.best.unwrap();
+            (0..2000)
+                .map(
+                    |_| match t.feedback(FeedbackKind::Action, &j, ActionIndex::FIRST) {
+                        Some(Feedback::Action(f)) => Some(f.action),
+                        None => None,
+                        other => panic!("{other:?}"),
+                    },
+                )
+                .map(|a| (a, a == Some(best)))
+                .collect::<Vec<_>>()
+        };
+        let a = answers(5);
+        assert_eq!(a, answers(5));
+        assert_ne!(a, answers(6));
+        let off = a.iter().filter(|(_, right)| !right).count() as f64 / a.len() as f64;
+        // About 20% random, of which a few land on the teacher's own action by chance.
+        assert!((0.15..0.23).contains(&off), "{off}");
+        // Without random answers nothing is drawn: the stream of a preference teacher is the
+        // same as before the option existed (the golden of tests/determinism.rs pins it too).
+        let plain = TeacherSpec::from_preset(preset("doors").unwrap());
+        let mut t = Teacher::new(plain, 5);
+        let j = t.judge(&obs).unwrap();
+        assert!(
+            (0..100).all(|_| t.feedback(FeedbackKind::Action, &j, ActionIndex::FIRST)
+                == Some(Feedback::Action(ActionFeedback {
+                    action: j.best.unwrap()
+                })))
+        );
     }
 
     #[test]
