@@ -20,12 +20,16 @@
 //! # Modes
 //!
 //! * online learning from `action`, `preference` or `semantic` feedback;
-//! * `bc`: behaviour cloning. The teacher drives one lap of its own policy (at most
-//!   [`BC_ROLLOUT_TICKS`] ticks) from the start; [`BC_SAMPLES`] ticks evenly spaced over that
-//!   rollout become action-feedback samples (features, mask, the teacher's choice). They are
-//!   fitted offline with the same generalized hinge and learner: epochs over the samples in their
-//!   order until an epoch leaves the weights unchanged or [`BC_MAX_EPOCHS`] epochs. The fitted
-//!   learner is then frozen for the run (no feedback reaches it) and scored like the others;
+//! * `bc`: behaviour cloning, the paper's baseline "trained on 50 samples of action feedback"
+//!   that "does not receive additional training from the initial first 50 datapoints". The
+//!   teacher's own policy drives the run's first [`BC_SAMPLES`] ticks (ticks 0–49) from the run's
+//!   start pose; each tick is one sample of action feedback (its features, its mask, the
+//!   teacher's action). They are fitted offline with the same generalized hinge and learner:
+//!   epochs over the samples in tick order until an epoch leaves the weights unchanged or
+//!   [`BC_MAX_EPOCHS`] epochs. The fitted learner is then frozen for the whole run (no feedback
+//!   reaches it), which starts again from the same pose, and is scored like the others. The
+//!   samples therefore cover only what the start of a run shows (a few metres of hallway), as the
+//!   paper's "initial first 50 datapoints" do;
 //! * `teacher`: the teacher's own policy drives (learner weights = teacher weights, frozen): the
 //!   reference the learners are measured against, and the lap test of every household.
 //!
@@ -173,10 +177,8 @@ impl Mode {
     }
 }
 
-/// Number of behaviour-cloning samples.
+/// Number of behaviour-cloning samples: the teacher's demonstration of ticks 0–49.
 pub const BC_SAMPLES: usize = 50;
-/// Longest teacher rollout the samples are drawn from (ticks).
-pub const BC_ROLLOUT_TICKS: u32 = 3_000;
 /// Epoch cap of the behaviour-cloning fit.
 pub const BC_MAX_EPOCHS: u32 = 200;
 /// Largest number of steps of one run.
@@ -373,13 +375,28 @@ pub struct StepRecord {
     pub theta: f64,
 }
 
+/// One behaviour-cloning sample: a tick of the teacher's demonstration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BcSample {
+    /// The tick of the demonstration (from 0).
+    pub tick: u32,
+    /// Where the car was.
+    pub pose: Pose,
+    /// The features of every action.
+    pub table: FeatureTable,
+    /// The allowed actions.
+    pub mask: ActionMask,
+    /// The teacher's action: the label.
+    pub label: ActionIndex,
+}
+
 /// What behaviour cloning did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BcFit {
     /// Samples fitted.
     pub samples: usize,
-    /// Ticks of the teacher's rollout they were drawn from.
-    pub rollout_ticks: u32,
+    /// Ticks of the teacher's demonstration they came from (ticks `0..ticks`).
+    pub ticks: u32,
     /// Epochs run.
     pub epochs: u32,
     /// Whether the weights stopped changing before the cap.
@@ -519,7 +536,7 @@ impl RunReport {
             "laps": self.laps(),
             "bc": self.bc.map(|b| serde_json::json!({
                 "samples": b.samples,
-                "rollout_ticks": b.rollout_ticks,
+                "ticks": b.ticks,
                 "epochs": b.epochs,
                 "converged": b.converged,
                 "weights": b.weights,
@@ -547,32 +564,47 @@ pub fn learner_with(params: LearnerParams, weights: Weights) -> Result<LearnerSn
     Ok(Learner::new(p).snapshot())
 }
 
-/// Behaviour cloning: the teacher's rollout, the samples, the offline fit.
-pub fn behaviour_cloning(config: &RunConfig) -> Result<(LearnerSnapshot, BcFit)> {
-    let spec = config.teacher();
-    let mut teacher = Teacher::new(spec, config.seed ^ 0xB0C0_B0C0_B0C0_B0C0);
+/// The behaviour-cloning samples of `config`'s run: the teacher's own (noiseless) policy drives
+/// ticks 0–49 from the run's start pose; every tick with an allowed action is a sample labelled
+/// with the teacher's action. A reset (none happens to the households' teachers) puts the car
+/// back at the start, and the demonstration goes on from there.
+pub fn bc_samples(config: &RunConfig) -> Result<Vec<BcSample>> {
+    let spec = TeacherSpec {
+        noise: 0.0,
+        random_answers: 0.0,
+        ..config.teacher()
+    };
+    // The noiseless teacher draws nothing: the seed changes nothing here.
+    let mut teacher = Teacher::new(spec, config.seed);
     let mut episode = Episode::starting_at(config.scenario.clone(), config.start_pose());
-    let mut rollout: Vec<(FeatureTable, ActionMask, ActionIndex)> = Vec::new();
-    let mut ticks = 0;
-    while ticks < BC_ROLLOUT_TICKS && episode.laps() == 0 {
+    let mut samples = Vec::with_capacity(BC_SAMPLES);
+    for tick in 0..BC_SAMPLES as u32 {
         let obs = episode.observe();
+        let pose = episode.car().pose;
         let j = teacher
             .judge(&obs)
-            .map_err(|e| anyhow::anyhow!("tick {ticks}: observation refused: {e}"))?;
-        if let Some(label) = j.choice {
-            rollout.push((j.table.clone(), j.allowed, label));
+            .map_err(|e| anyhow::anyhow!("tick {tick}: observation refused: {e}"))?;
+        if let Some(label) = j.best {
+            samples.push(BcSample {
+                tick,
+                pose,
+                table: j.table,
+                mask: j.allowed,
+                label,
+            });
         }
         episode.drive(j.best);
-        ticks += 1;
     }
     ensure!(
-        rollout.len() >= BC_SAMPLES,
-        "behaviour cloning: the teacher's rollout gave only {} samples",
-        rollout.len()
+        !samples.is_empty(),
+        "behaviour cloning: the teacher had no allowed action in its first {BC_SAMPLES} ticks"
     );
-    let samples: Vec<_> = (0..BC_SAMPLES)
-        .map(|k| &rollout[k * rollout.len() / BC_SAMPLES])
-        .collect();
+    Ok(samples)
+}
+
+/// Behaviour cloning: the samples of [`bc_samples`], fitted offline.
+pub fn behaviour_cloning(config: &RunConfig) -> Result<(LearnerSnapshot, BcFit)> {
+    let samples = bc_samples(config)?;
     let params = config
         .learner
         .check()
@@ -582,13 +614,13 @@ pub fn behaviour_cloning(config: &RunConfig) -> Result<(LearnerSnapshot, BcFit)>
     let mut converged = false;
     while epochs < BC_MAX_EPOCHS {
         let before = learner.snapshot();
-        for (table, mask, label) in &samples {
+        for s in &samples {
             let chosen = learner
-                .select(table, *mask)
+                .select(&s.table, s.mask)
                 .context("behaviour cloning: empty mask")?;
-            let round = Round::new(table, *mask, chosen).map_err(anyhow::Error::msg)?;
+            let round = Round::new(&s.table, s.mask, chosen).map_err(anyhow::Error::msg)?;
             learner
-                .learn(&round, &ActionFeedback { action: *label })
+                .learn(&round, &ActionFeedback { action: s.label })
                 .map_err(anyhow::Error::msg)?;
         }
         epochs += 1;
@@ -599,7 +631,7 @@ pub fn behaviour_cloning(config: &RunConfig) -> Result<(LearnerSnapshot, BcFit)>
     }
     let fit = BcFit {
         samples: samples.len(),
-        rollout_ticks: ticks,
+        ticks: BC_SAMPLES as u32,
         epochs,
         converged,
         weights: *learner.weights(),

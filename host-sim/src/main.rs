@@ -103,8 +103,8 @@ struct RunArgs {
     scenario: String,
     /// How the learner is taught: action (the teacher's action), preference (learner's action
     /// vs a random one), semantic (statements such as "avoid doors"), bc (behaviour cloning on
-    /// 50 action samples of the teacher's own lap, then frozen), teacher (the teacher's own
-    /// policy drives, frozen).
+    /// the teacher's demonstration of the run's first 50 ticks, then frozen), teacher (the
+    /// teacher's own policy drives, frozen).
     #[arg(long, default_value = "action", value_parser = parse_mode)]
     feedback: Mode,
     /// Number of control ticks (0.1 s each).

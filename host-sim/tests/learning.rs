@@ -2,7 +2,7 @@
 
 use std::sync::Arc;
 
-use host_sim::experiment::{self, Mode, RunConfig};
+use host_sim::experiment::{self, Mode, RunConfig, StartJitter};
 use host_sim::registry;
 use host_sim::teacher::FeedbackKind;
 
@@ -40,21 +40,50 @@ fn action_feedback_on_doors_cuts_the_latent_loss_to_under_a_third() {
 }
 
 #[test]
-fn behaviour_cloning_is_fitted_then_frozen() {
+fn behaviour_cloning_is_fitted_on_ticks_0_to_49_then_frozen() {
     let s = Arc::new(registry::load_scenario("doors").unwrap());
-    let config = RunConfig {
-        mode: Mode::BehaviourCloning,
-        steps: 300,
-        ..RunConfig::new(s)
-    };
-    let r = experiment::run(&config).unwrap();
-    let bc = r.bc.expect("a bc run reports its fit");
-    println!("bc fit: {bc:?}");
-    assert_eq!(bc.samples, experiment::BC_SAMPLES);
-    assert!(bc.epochs >= 1 && bc.epochs <= experiment::BC_MAX_EPOCHS);
-    assert_eq!(r.corrections(), 0, "no feedback reaches a frozen learner");
-    assert_eq!(r.final_snapshot.state.average, bc.weights, "frozen");
-    assert!(bc.weights.iter().any(|&w| w != 0.0));
+    for seed in [0, 7] {
+        let config = RunConfig {
+            mode: Mode::BehaviourCloning,
+            steps: 300,
+            seed,
+            learner: firmware_core::LearnerParams::paper(),
+            start_jitter: Some(StartJitter::REPRODUCE),
+            ..RunConfig::new(s.clone())
+        };
+        // The samples are the teacher's demonstration of the run's ticks 0–49: the poses, the
+        // labels and the masks of a run in which the teacher's own policy drives from the same
+        // (jittered) start.
+        let samples = experiment::bc_samples(&config).unwrap();
+        let ticks: Vec<u32> = samples.iter().map(|x| x.tick).collect();
+        assert_eq!(
+            ticks,
+            (0..experiment::BC_SAMPLES as u32).collect::<Vec<_>>()
+        );
+        let teacher = experiment::run(&RunConfig {
+            mode: Mode::Teacher,
+            steps: 60,
+            ..config.clone()
+        })
+        .unwrap();
+        for (x, r) in samples.iter().zip(&teacher.records) {
+            assert_eq!((x.pose.x, x.pose.y, x.pose.theta), (r.x, r.y, r.theta));
+            assert_eq!(Some(x.label), r.teacher_action, "tick {}", x.tick);
+        }
+        let r = experiment::run(&config).unwrap();
+        let bc = r.bc.expect("a bc run reports its fit");
+        println!("seed {seed}: bc fit {bc:?}");
+        assert_eq!((bc.samples, bc.ticks), (experiment::BC_SAMPLES, 50));
+        assert!(bc.epochs >= 1 && bc.epochs <= experiment::BC_MAX_EPOCHS);
+        assert_eq!(r.corrections(), 0, "no feedback reaches a frozen learner");
+        assert_eq!(r.final_snapshot.state.average, bc.weights, "frozen");
+        assert!(bc.weights.iter().any(|&w| w != 0.0));
+        // The run starts where the demonstration started.
+        assert_eq!(
+            (r.records[0].x, r.records[0].y),
+            (samples[0].pose.x, samples[0].pose.y)
+        );
+    }
 }
 
 /// With the paper's learner (plain OGD, η = 0.01) every kind of feedback teaches the doors task.
