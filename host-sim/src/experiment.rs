@@ -367,6 +367,9 @@ pub struct StepRecord {
     pub reset: Option<ResetReason>,
     /// Laps completed so far.
     pub lap: u32,
+    /// Progress along the path so far, summed over every episode (m; see
+    /// [`Episode::total_progress`]).
+    pub progress: f64,
     /// Pose where the action was chosen.
     pub x: f64,
     /// Pose where the action was chosen.
@@ -444,6 +447,20 @@ impl RunReport {
         self.resets[0]
     }
 
+    /// Progress along the path over the run (m; see [`Episode::total_progress`]).
+    pub fn progress(&self) -> f64 {
+        self.records.last().map_or(0.0, |r| r.progress)
+    }
+
+    /// The task's outcome in words: laps, progress and resets by cause.
+    pub fn task_success(&self) -> TaskSuccess {
+        TaskSuccess {
+            laps: self.laps(),
+            progress: self.progress(),
+            resets: self.resets,
+        }
+    }
+
     /// Mean latent loss over steps `range`.
     pub fn mean_loss(&self, range: std::ops::Range<usize>) -> f64 {
         let rows =
@@ -465,13 +482,13 @@ impl RunReport {
     pub fn write_csv<W: Write>(&self, mut w: W) -> std::io::Result<()> {
         writeln!(
             w,
-            "step,action,teacher_action,latent_loss,corrected,corrections,collision,reset,lap,x,y,theta"
+            "step,action,teacher_action,latent_loss,corrected,corrections,collision,reset,lap,progress,x,y,theta"
         )?;
         let idx = |a: Option<ActionIndex>| a.map(|a| a.get().to_string()).unwrap_or_default();
         for r in &self.records {
             writeln!(
                 w,
-                "{},{},{},{},{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{},{:.3},{},{},{}",
                 r.step,
                 idx(r.action),
                 idx(r.teacher_action),
@@ -481,6 +498,7 @@ impl RunReport {
                 u8::from(r.collision),
                 r.reset.map_or("", |x| x.name()),
                 r.lap,
+                r.progress,
                 r.x,
                 r.y,
                 r.theta
@@ -528,6 +546,13 @@ impl RunReport {
                 "lost": self.resets[2],
                 "blocked": self.resets[3],
                 "laps": self.laps(),
+                "progress_m": self.progress(),
+            },
+            "resets": {
+                "collision": self.resets[0],
+                "stuck": self.resets[1],
+                "lost": self.resets[2],
+                "blocked": self.resets[3],
             },
             "mean_latent_loss_first_10pct": first,
             "mean_latent_loss_last_10pct": last,
@@ -543,6 +568,48 @@ impl RunReport {
             })),
         })
     }
+}
+
+/// The names of the reset causes, in the order of [`RunReport::resets`].
+pub const RESET_CAUSES: [&str; 4] = ["collision", "stuck", "lost", "blocked"];
+
+/// Whether a run got anywhere: what latent loss alone cannot see (a car that circles where the
+/// teacher would circle too has a latent loss of zero).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TaskSuccess {
+    /// Laps completed.
+    pub laps: u32,
+    /// Progress along the path, summed over every episode (m).
+    pub progress: f64,
+    /// Resets by cause: collision, stuck, lost, blocked ([`RESET_CAUSES`]).
+    pub resets: [u32; 4],
+}
+
+impl TaskSuccess {
+    /// Resets of every cause.
+    pub fn total_resets(&self) -> u32 {
+        self.resets.iter().sum()
+    }
+
+    /// "3 laps, 152.3 m of progress, resets: 0 collision, 2 stuck, 11 lost, 0 blocked".
+    pub fn describe(&self) -> String {
+        format!(
+            "{} laps, {:.1} m of progress, resets: {}",
+            self.laps,
+            self.progress,
+            describe_resets(&self.resets)
+        )
+    }
+}
+
+/// "0 collision, 2 stuck, 11 lost, 0 blocked".
+pub fn describe_resets(resets: &[u32; 4]) -> String {
+    RESET_CAUSES
+        .iter()
+        .zip(resets)
+        .map(|(c, n)| format!("{n} {c}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// FNV-1a (64-bit) of `bytes`: the digest the determinism goldens pin.
@@ -704,6 +771,7 @@ pub fn run_with(
             collision: result.reset == Some(ResetReason::Collision),
             reset: result.reset,
             lap: episode.laps(),
+            progress: episode.total_progress(),
             x: pose.x,
             y: pose.y,
             theta: pose.theta,

@@ -34,7 +34,7 @@ enum Command {
     /// Run one experiment: a learner taught by a programmatic teacher in a household.
     ///
     /// Writes DIR/steps.csv (one row per control tick: step, action, teacher_action,
-    /// latent_loss, corrected, corrections, collision, reset, lap, x, y, theta) and
+    /// latent_loss, corrected, corrections, collision, reset, lap, progress, x, y, theta) and
     /// DIR/summary.json (configuration, seed, final weights, totals, mean latent loss of the
     /// first and last 10% of the steps, wall time).
     Run(RunArgs),
@@ -342,7 +342,7 @@ fn run(args: &RunArgs) -> Result<()> {
         .with_context(|| format!("{}: cannot write", json.display()))?;
     let (first, last) = report.first_last(0.1);
     println!(
-        "{} / {} / seed {}: {} steps, mean latent loss {:.3} (first 10%) -> {:.3} (last 10%), {} corrections, {} collisions, {} laps",
+        "{} / {} / seed {}: {} steps, mean latent loss {:.3} (first 10%) -> {:.3} (last 10%), {} corrections, {}",
         report.scenario,
         config.mode.name(),
         config.seed,
@@ -350,8 +350,7 @@ fn run(args: &RunArgs) -> Result<()> {
         first,
         last,
         report.corrections(),
-        report.collisions(),
-        report.laps()
+        report.task_success().describe()
     );
     println!("final weights {:?}", report.final_snapshot.state.average);
     println!(

@@ -122,6 +122,8 @@ pub struct Episode {
     s: f64,
     /// Progress since the start of the episode (m, signed).
     progress: f64,
+    /// Progress over every episode so far (m, signed): what a reset does not take back.
+    total_progress: f64,
     best: f64,
     since_progress: u32,
     episode_laps: u32,
@@ -145,6 +147,7 @@ impl Episode {
             params: CarParams::MUSHR,
             s: 0.0,
             progress: 0.0,
+            total_progress: 0.0,
             best: 0.0,
             since_progress: 0,
             episode_laps: 0,
@@ -183,6 +186,13 @@ impl Episode {
     /// Progress along the path since the episode started (m).
     pub fn progress(&self) -> f64 {
         self.progress
+    }
+
+    /// Progress along the path summed over every episode so far (m): the distance driven along
+    /// the path, forward positive, that resets do not take back. A lap of a closed path adds its
+    /// length.
+    pub fn total_progress(&self) -> f64 {
+        self.total_progress
     }
 
     /// The scenario.
@@ -224,7 +234,9 @@ impl Episode {
         let path = &self.scenario.path;
         let p = (self.car.pose.x, self.car.pose.y);
         let (s, d) = path.project_near(p, self.s, 1.0, 2.0);
-        self.progress += path.delta(self.s, s);
+        let delta = path.delta(self.s, s);
+        self.progress += delta;
+        self.total_progress += delta;
         self.s = s;
         let mut lap = false;
         if path.is_closed() {
