@@ -17,6 +17,8 @@
 //! * [`map`]: occupancy grids in ROS `map_server` format, DDA ray casting.
 //! * [`path`]: the reference path (polyline, loop or open), projection and look-ahead.
 //! * [`scenario`]: scenario files (map, semantic objects, path, start, teacher), validated.
+//! * [`check`]: the scenario check: the teacher's own policy must drive a lap before a scenario
+//!   is used.
 //! * [`car`]: kinematic bicycle with MuSHR constants, footprint, pure-pursuit tracker.
 //! * [`sim`]: sensing (range scan, detections, path reference) and the episode (resets, laps).
 //! * [`teacher`]: programmatic teachers (presets, threshold, noise) and their feedback.
@@ -39,6 +41,7 @@
 #![deny(missing_docs)]
 
 pub mod car;
+pub mod check;
 pub mod experiment;
 pub mod figure;
 pub mod households;

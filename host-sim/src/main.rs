@@ -24,6 +24,27 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Use a scenario even if its teacher's own policy cannot drive a lap of it (every scenario
+    /// is checked when it is loaded; skipping the check is said on standard error).
+    #[arg(long, global = true)]
+    no_scenario_check: bool,
+}
+
+/// Whether loaded scenarios are checked (`--no-scenario-check` clears it).
+static SCENARIO_CHECK: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
+
+/// Loads a scenario by name or path: checked (its teacher must drive a lap) unless
+/// `--no-scenario-check`, which is said on standard error.
+fn load_scenario(name_or_path: &str) -> Result<host_sim::scenario::Scenario> {
+    if SCENARIO_CHECK.load(std::sync::atomic::Ordering::Relaxed) {
+        return registry::load_scenario(name_or_path);
+    }
+    let s = registry::load_scenario_unchecked(name_or_path)?;
+    eprintln!(
+        "host-sim: scenario {}: not checked (--no-scenario-check): its teacher may not be able to drive a lap",
+        s.name
+    );
+    Ok(s)
 }
 
 #[derive(Subcommand, Debug)]
@@ -284,7 +305,7 @@ fn parse_mode(s: &str) -> Result<Mode, String> {
 }
 
 fn run_config(args: &RunArgs) -> Result<RunConfig> {
-    let scenario = registry::load_scenario(&args.scenario)?;
+    let scenario = load_scenario(&args.scenario)?;
     let mut learner = LearnerParams::new(args.learner);
     if let Some(step) = args.step {
         learner = learner.with_step(step);
@@ -364,7 +385,7 @@ fn run(args: &RunArgs) -> Result<()> {
 fn list() {
     println!("scenarios (--scenario NAME, or a path to your own .toml):");
     for s in registry::SCENARIOS {
-        let length = registry::load_scenario(s.name)
+        let length = load_scenario(s.name)
             .map(|scn| format!("{:6.1} m path", scn.path.length()))
             .unwrap_or_else(|e| format!("(cannot load: {e})"));
         println!("  {:<14} {length}  {}", s.name, s.description);
@@ -380,7 +401,7 @@ fn list() {
 }
 
 fn draw(scenario: &str, run: Option<&Path>, out: &Path) -> Result<()> {
-    let s = registry::load_scenario(scenario)?;
+    let s = load_scenario(scenario)?;
     let mut raster = host_sim::plot::Raster::of_scenario(&s);
     if let Some(csv) = run {
         raster.trace(&host_sim::plot::read_trace(csv)?);
@@ -473,7 +494,7 @@ fn bench(scenario: &str, steps: u32) -> Result<()> {
     if steps == 0 {
         bail!("--steps must be positive");
     }
-    let s = Arc::new(registry::load_scenario(scenario)?);
+    let s = Arc::new(load_scenario(scenario)?);
     let config = RunConfig {
         steps,
         ..RunConfig::new(s)
@@ -565,6 +586,9 @@ fn demo(args: &DemoArgs) -> Result<()> {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if cli.no_scenario_check {
+        SCENARIO_CHECK.store(false, std::sync::atomic::Ordering::Relaxed);
+    }
     let result = match &cli.command {
         Command::Demo(args) => demo(args),
         Command::Run(args) => run(args),

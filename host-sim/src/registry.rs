@@ -72,8 +72,17 @@ pub fn resolve(name_or_path: &str) -> PathBuf {
     }
 }
 
-/// Loads a built-in scenario by name, or a scenario file by path.
+/// Loads a built-in scenario by name, or a scenario file by path, and checks that its teacher's
+/// own policy drives a lap of it ([`crate::check::teacher_lap`]); a scenario that fails is
+/// refused with where and why.
 pub fn load_scenario(name_or_path: &str) -> Result<Scenario> {
+    let s = load_scenario_unchecked(name_or_path)?;
+    crate::check::teacher_lap(&Arc::new(s.clone()))?;
+    Ok(s)
+}
+
+/// [`load_scenario`] without the teacher's lap (`host-sim --no-scenario-check`).
+pub fn load_scenario_unchecked(name_or_path: &str) -> Result<Scenario> {
     let path = resolve(name_or_path);
     if !path.exists() && !name_or_path.contains(['/', '.']) {
         let names: Vec<_> = SCENARIOS.iter().map(|s| s.name).collect();

@@ -188,6 +188,11 @@ impl Episode {
         self.progress
     }
 
+    /// The car's projection onto the path (m of arc length from the path's start).
+    pub fn station(&self) -> f64 {
+        self.s
+    }
+
     /// Progress along the path summed over every episode so far (m): the distance driven along
     /// the path, forward positive, that resets do not take back. A lap of a closed path adds its
     /// length.

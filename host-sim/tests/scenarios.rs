@@ -165,3 +165,98 @@ fn bad_scenarios_name_the_field() {
         .to_string();
     assert!(e.contains("absent.toml: cannot read"), "{e}");
 }
+
+/// The room of [`room`] with a wall across it at x = 3 m, floor to ceiling: the path runs
+/// through the wall, so the teacher's own policy cannot drive a lap.
+fn walled_room(dir: &Path) -> std::path::PathBuf {
+    let (w, h) = (60usize, 40usize);
+    let mut pgm = format!("P5\n{w} {h}\n255\n").into_bytes();
+    for r in 0..h {
+        for c in 0..w {
+            let wall = r < 2 || c < 2 || r >= h - 2 || c >= w - 2 || (29..31).contains(&c);
+            pgm.push(if wall { 0 } else { 254 });
+        }
+    }
+    std::fs::write(dir.join("walled.pgm"), pgm).unwrap();
+    write(
+        dir,
+        "walled.yaml",
+        "image: walled.pgm\nresolution: 0.1\norigin: [0, 0, 0]\n",
+    );
+    write(
+        dir,
+        "walled.toml",
+        "map = \"walled.yaml\"\n[path]\nwaypoints = [[1.0, 1.0], [5.0, 1.0], [5.0, 3.0], [1.0, 3.0]]\n[teacher]\npreset = \"doors\"\n",
+    )
+}
+
+#[test]
+fn a_scenario_whose_teacher_cannot_lap_is_refused_with_where_and_why() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = walled_room(tmp.path());
+    // The file itself is well formed.
+    let s = Scenario::load(&file).unwrap();
+    let e = host_sim::check::teacher_lap(&std::sync::Arc::new(s)).unwrap_err();
+    println!("{e}");
+    // It stops in front of the wall, on the first leg of the path (y = 1, x below 3).
+    assert!(e.x < 3.0 && (e.y - 1.0).abs() < 0.5, "{e:?}");
+    assert!(e.station > 0.5 && e.station < 2.0, "{e:?}");
+    let text = e.to_string();
+    for part in [
+        "walled: the teacher's own policy cannot drive a lap",
+        &format!("at tick {}", e.tick),
+        &format!("({:.2}, {:.2}) m", e.x, e.y),
+        "m along the path (12.0 m long)",
+        "--no-scenario-check",
+    ] {
+        assert!(text.contains(part), "{part:?} in {text}");
+    }
+    // Loading by path refuses it with the same message.
+    let e = registry::load_scenario(file.to_str().unwrap())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cannot drive a lap"), "{e}");
+    assert!(registry::load_scenario_unchecked(file.to_str().unwrap()).is_ok());
+
+    // The command line refuses it too, and runs it with --no-scenario-check, saying so.
+    let host_sim = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_host-sim"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let out = tmp.path().join("out");
+    let args = [
+        "run",
+        "--scenario",
+        file.to_str().unwrap(),
+        "--steps",
+        "20",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = host_sim(&args);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("cannot drive a lap") && err.contains("m along the path"),
+        "{err}"
+    );
+    let mut skip = args.to_vec();
+    skip.push("--no-scenario-check");
+    let o = host_sim(&skip);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("not checked (--no-scenario-check)"), "{err}");
+}
+
+#[test]
+fn every_built_in_teacher_drives_a_lap_within_the_check_s_limit() {
+    for s in registry::SCENARIOS {
+        let scn = std::sync::Arc::new(registry::load_scenario_unchecked(s.name).unwrap());
+        let lap = host_sim::check::teacher_lap(&scn).unwrap();
+        let limit = host_sim::check::lap_tick_limit(&scn);
+        println!("{}: a lap in {} ticks (limit {limit})", s.name, lap.ticks);
+        assert!(lap.ticks < limit / 2, "{}", s.name);
+    }
+}
