@@ -30,6 +30,8 @@
 //! * [`households`]: the generator of the built-in household maps.
 //! * [`plot`]: drawings: the lattice (SVG), a scenario and a run's poses (PNG).
 //! * [`figure`]: the reproduction's charts (mean ± std bands) and map panels, as PNG and SVG.
+//! * [`calibrate`]: `host-sim calibrate`, the procedure that fixes the teachers' scale from the
+//!   paper's words (`docs/reproduction/CALIBRATION.md`).
 //! * [`reproduce`]: `host-sim reproduce` and `host-sim merge`: the paper's section 6 end to end,
 //!   sharded or not, with CSVs, figures and a report that checks the paper's claims.
 //! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
@@ -40,6 +42,7 @@
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod calibrate;
 pub mod car;
 pub mod check;
 pub mod experiment;

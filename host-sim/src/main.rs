@@ -95,6 +95,10 @@ enum Command {
     /// 0.01. With --shard i/n it runs only slice i of n of the trial grid and writes its raw
     /// results for `host-sim merge`.
     Reproduce(ReproduceArgs),
+    /// Calibrate the teachers' scale from the paper's words (docs/reproduction/CALIBRATION.md):
+    /// the path follower along each teacher's lap, the targets' exact intervals, the rule's
+    /// scale, and the latent-loss statistics it rests on. Prints Markdown.
+    Calibrate,
     /// Merge the folders of `host-sim reproduce --shard i/n` runs into the outputs of one run
     /// (byte-identical to running the whole grid on one machine).
     Merge {
@@ -607,6 +611,9 @@ fn main() -> ExitCode {
         Command::Bench { scenario, steps } => bench(scenario, *steps),
         Command::Reproduce(args) => reproduce(args),
         Command::Merge { dirs, out } => merge(dirs, out),
+        Command::Calibrate => host_sim::calibrate::run().map(|c| {
+            print!("{}", host_sim::calibrate::markdown(&c));
+        }),
         Command::Draw { scenario, run, out } => draw(scenario, run.as_deref(), out),
     };
     match result {
