@@ -207,6 +207,8 @@ pub struct RunConfig {
     pub statements: Option<StatementSet>,
     /// Overrides the scenario teacher's probability of a random answer.
     pub random_answers: Option<f32>,
+    /// Multiplies the scenario teacher's weights (its scale; the reproduction's scale sweep).
+    pub teacher_scale: Option<f32>,
 }
 
 /// A small random offset of the start pose, drawn once per run from the run's seed, so that
@@ -278,6 +280,7 @@ impl RunConfig {
             start_jitter: None,
             statements: None,
             random_answers: None,
+            teacher_scale: None,
         }
     }
 
@@ -304,6 +307,9 @@ impl RunConfig {
         if let Some(p) = self.random_answers {
             t.random_answers = p;
         }
+        if let Some(f) = self.teacher_scale {
+            t.weights = crate::teacher::scaled(&t.weights, f);
+        }
         t
     }
 
@@ -325,6 +331,12 @@ impl RunConfig {
             "noise must be finite and >= 0, got {}",
             t.noise
         );
+        if let Some(f) = self.teacher_scale {
+            ensure!(
+                f.is_finite() && f > 0.0 && f <= 1.0e3,
+                "the teacher's scale factor must be in (0, 1000], got {f}"
+            );
+        }
         ensure!(
             (0.0..=1.0).contains(&t.random_answers),
             "the probability of a random answer must be in [0, 1], got {}",

@@ -77,12 +77,7 @@ impl PngCanvas {
 
     fn glyphs(&mut self, text: &str, at: (i32, i32), scale: i32, c: [u8; 3], t: FontTransform) {
         for (k, ch) in text.chars().enumerate() {
-            let code = ch as usize;
-            let glyph = if code < 128 {
-                font8x8::legacy::BASIC_LEGACY[code]
-            } else {
-                font8x8::legacy::BASIC_LEGACY[b'?' as usize]
-            };
+            let glyph = glyph(ch);
             for (gy, bits) in glyph.iter().enumerate() {
                 for gx in 0..8 {
                     if bits >> gx & 1 == 0 {
@@ -105,6 +100,25 @@ impl PngCanvas {
     /// The PNG file's bytes.
     pub fn png_bytes(&self) -> Result<Vec<u8>> {
         encode_png(self.width as usize, self.height as usize, &self.rgb)
+    }
+}
+
+/// The 8×8 glyph of `ch`: ASCII, Latin-1 (±, ×, °, …) and Greek (σ, τ, …) from `font8x8`; a few
+/// symbols the reports use drawn here (→, −, ≤, ≥, √, ∞); `?` for anything else.
+pub fn glyph(ch: char) -> [u8; 8] {
+    use font8x8::legacy::{BASIC_LEGACY, GREEK_LEGACY, LATIN_LEGACY};
+    let code = ch as usize;
+    match ch {
+        '\u{0}'..='\u{7f}' => BASIC_LEGACY[code],
+        '\u{a0}'..='\u{ff}' => LATIN_LEGACY[code - 0xa0],
+        '\u{390}'..='\u{3c9}' => GREEK_LEGACY[code - 0x390],
+        '→' => [0x00, 0x08, 0x18, 0x3F, 0x18, 0x08, 0x00, 0x00],
+        '−' => [0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x00, 0x00],
+        '≤' => [0x30, 0x0C, 0x03, 0x0C, 0x30, 0x00, 0x3F, 0x00],
+        '≥' => [0x03, 0x0C, 0x30, 0x0C, 0x03, 0x00, 0x3F, 0x00],
+        '√' => [0x70, 0x10, 0x10, 0x10, 0x13, 0x16, 0x1C, 0x18],
+        '∞' => [0x00, 0x00, 0x36, 0x49, 0x49, 0x36, 0x00, 0x00],
+        _ => BASIC_LEGACY[b'?' as usize],
     }
 }
 
@@ -502,6 +516,18 @@ mod tests {
         ] {
             assert_eq!(base64(i.as_bytes()), o);
         }
+    }
+
+    #[test]
+    fn sigma_and_plus_minus_have_their_own_glyphs() {
+        let q = glyph('?');
+        for c in ['σ', '±', '×', '→', 'τ', '√', '≤'] {
+            assert_ne!(glyph(c), q, "{c}");
+            assert_ne!(glyph(c), [0; 8], "{c}");
+        }
+        assert_eq!(glyph('σ'), font8x8::legacy::GREEK_LEGACY[0x3c3 - 0x390]);
+        assert_eq!(glyph('A'), font8x8::legacy::BASIC_LEGACY[65]);
+        assert_eq!(glyph('€'), q);
     }
 
     #[test]

@@ -32,6 +32,7 @@
 //! * [`figure`]: the reproduction's charts (mean ± std bands) and map panels, as PNG and SVG.
 //! * [`calibrate`]: `host-sim calibrate`, the procedure that fixes the teachers' scale from the
 //!   paper's words (`docs/reproduction/CALIBRATION.md`).
+//! * [`claims`]: the paper's claims, each checked by one pure function of the aggregates.
 //! * [`reproduce`]: `host-sim reproduce` and `host-sim merge`: the paper's section 6 end to end,
 //!   sharded or not, with CSVs, figures and a report that checks the paper's claims.
 //! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
@@ -45,6 +46,7 @@
 pub mod calibrate;
 pub mod car;
 pub mod check;
+pub mod claims;
 pub mod experiment;
 pub mod figure;
 pub mod households;

@@ -95,6 +95,9 @@ enum Command {
     /// 0.01. With --shard i/n it runs only slice i of n of the trial grid and writes its raw
     /// results for `host-sim merge`.
     Reproduce(ReproduceArgs),
+    /// Run the reproduction's claims with every teacher's weights at ×1/4, ×1/2, ×1, ×2 and ×4
+    /// of the calibrated scale, and write the table of verdicts (Markdown).
+    ScaleSweep(ScaleSweepArgs),
     /// Calibrate the teachers' scale from the paper's words (docs/reproduction/CALIBRATION.md):
     /// the path follower along each teacher's lap, the targets' exact intervals, the rule's
     /// scale, and the latent-loss statistics it rests on. Prints Markdown.
@@ -260,6 +263,30 @@ struct ReproduceArgs {
     /// or a Kubernetes JOB_COMPLETION_INDEX) and write its raw results for `host-sim merge`.
     #[arg(long, value_name = "INDEX/COUNT")]
     shard: Option<host_sim::reproduce::Shard>,
+    /// Multiply every teacher's weights by this factor (default 1: the calibrated teachers of
+    /// docs/reproduction/CALIBRATION.md).
+    #[arg(long, default_value_t = 1.0)]
+    teacher_scale: f32,
+}
+
+#[derive(clap::Args, Debug)]
+struct ScaleSweepArgs {
+    /// Trials per setting (fewer than the report's 10 keeps the five grids quick; the output
+    /// says how many).
+    #[arg(long, default_value_t = 5)]
+    trials: u32,
+    /// Control ticks per trial.
+    #[arg(long, default_value_t = 5_000)]
+    steps: u32,
+    /// Seed of trial 0.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (default: one per core). The output does not depend on it.
+    #[arg(long)]
+    jobs: Option<usize>,
+    /// The Markdown file to write.
+    #[arg(long, default_value = "out/SCALE_SWEEP.md")]
+    out: PathBuf,
 }
 
 #[derive(clap::Args, Debug)]
@@ -421,18 +448,12 @@ fn reproduce(args: &ReproduceArgs) -> Result<()> {
         trials: args.trials,
         steps: args.steps,
         seed: args.seed,
+        teacher_scale: args.teacher_scale,
     };
     o.check()?;
-    if args.jobs == Some(0) {
-        bail!("--jobs must be positive");
-    }
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     prepare_out(&args.out)?;
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = args.jobs {
-        pool = pool.num_threads(n);
-    }
-    let pool = pool.build().context("cannot start the worker threads")?;
+    let pool = worker_pool(args.jobs)?;
     let jobs = reproduce::jobs(&o, shard).len();
     let bar = progress_bar(
         jobs as u64,
@@ -462,6 +483,54 @@ fn reproduce(args: &ReproduceArgs) -> Result<()> {
     print_outcome(&args.out, &report);
     println!(
         "wall time {:.1} s ({ran:.1} s of trials)",
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The rayon pool of `--jobs` threads (default: one per core).
+fn worker_pool(jobs: Option<usize>) -> Result<rayon::ThreadPool> {
+    if jobs == Some(0) {
+        bail!("--jobs must be positive");
+    }
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = jobs {
+        pool = pool.num_threads(n);
+    }
+    pool.build().context("cannot start the worker threads")
+}
+
+fn scale_sweep(args: &ScaleSweepArgs) -> Result<()> {
+    use host_sim::reproduce::{self, Options, SWEEP_FACTORS, Shard};
+    let o = Options {
+        trials: args.trials,
+        steps: args.steps,
+        seed: args.seed,
+        teacher_scale: 1.0,
+    };
+    o.check()?;
+    let pool = worker_pool(args.jobs)?;
+    if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        prepare_out(parent)?;
+    }
+    let jobs = reproduce::jobs(&o, Shard::WHOLE).len() * SWEEP_FACTORS.len();
+    let bar = progress_bar(
+        jobs as u64,
+        "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} trials, {eta} left {msg}",
+    );
+    let started = Instant::now();
+    let rows = pool.install(|| reproduce::scale_sweep(&o, &SWEEP_FACTORS, &|| bar.inc(1)))?;
+    bar.finish_and_clear();
+    let text = reproduce::scale_sweep_markdown(&o, &rows);
+    std::fs::write(&args.out, &text)
+        .with_context(|| format!("{}: cannot write", args.out.display()))?;
+    for line in text.lines().filter(|l| l.starts_with("| ")) {
+        println!("{line}");
+    }
+    println!(
+        "wrote {} ({jobs} trials on {} threads in {:.1} s)",
+        args.out.display(),
+        pool.current_num_threads(),
         started.elapsed().as_secs_f64()
     );
     Ok(())
@@ -611,6 +680,7 @@ fn main() -> ExitCode {
         Command::Bench { scenario, steps } => bench(scenario, *steps),
         Command::Reproduce(args) => reproduce(args),
         Command::Merge { dirs, out } => merge(dirs, out),
+        Command::ScaleSweep(args) => scale_sweep(args),
         Command::Calibrate => host_sim::calibrate::run().map(|c| {
             print!("{}", host_sim::calibrate::markdown(&c));
         }),

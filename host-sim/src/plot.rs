@@ -82,9 +82,27 @@ impl Raster {
     /// The same, at the largest whole number of pixels per cell (1 to 8) that keeps it at most
     /// `max_width` pixels wide (at least one pixel per cell).
     pub fn of_scenario_within(scenario: &crate::scenario::Scenario, max_width: usize) -> Self {
+        let scale = (max_width / scenario.map.width().max(1)).clamp(1, 8);
+        Self::of_scenario_scaled(scenario, scale)
+    }
+
+    /// The largest whole number of pixels per cell (1 to 8) that keeps every one of `scenarios`
+    /// at most `max_width` pixels wide: drawing them all at it gives one scale for all.
+    pub fn common_scale(scenarios: &[&crate::scenario::Scenario], max_width: usize) -> usize {
+        let widest = scenarios.iter().map(|s| s.map.width()).max().unwrap_or(1);
+        (max_width / widest.max(1)).clamp(1, 8)
+    }
+
+    /// Metres per pixel of a scenario drawn at `scale` pixels per cell.
+    pub fn metres_per_pixel(scenario: &crate::scenario::Scenario, scale: usize) -> f64 {
+        scenario.map.resolution() / scale.max(1) as f64
+    }
+
+    /// The map of `scenario` at `scale` pixels per cell (1 to 8).
+    pub fn of_scenario_scaled(scenario: &crate::scenario::Scenario, scale: usize) -> Self {
         use crate::map::Cell;
         let grid = scenario.map.clone();
-        let scale = (max_width / grid.width().max(1)).clamp(1, 8);
+        let scale = scale.clamp(1, 8);
         let (width, height) = (grid.width() * scale, grid.height() * scale);
         let mut r = Self {
             width,

@@ -99,6 +99,19 @@ impl ResetReason {
             ResetReason::PathEnd => "path-end",
         }
     }
+
+    /// The reason called `name` (see [`ResetReason::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        [
+            ResetReason::Collision,
+            ResetReason::Stuck,
+            ResetReason::Lost,
+            ResetReason::Blocked,
+            ResetReason::PathEnd,
+        ]
+        .into_iter()
+        .find(|r| r.name() == name)
+    }
 }
 
 /// What one tick of driving did.

@@ -66,8 +66,7 @@ fn run_writes_the_csv_and_the_summary() {
 }
 
 /// The line `run` prints and `summary.json` count resets by cause, as the CSV's rows do: here a
-/// learner that is put back at the start once for leaving the path, while latent loss alone
-/// would not show it.
+/// semantic learner early in its training, put back at the start when every trajectory collides.
 #[test]
 fn run_counts_resets_by_cause_in_its_line_and_its_summary() {
     let tmp = tempfile::tempdir().unwrap();
@@ -75,7 +74,9 @@ fn run_counts_resets_by_cause_in_its_line_and_its_summary() {
     let o = host_sim(&[
         "run",
         "--scenario",
-        "stairs-chairs",
+        "doors",
+        "--feedback",
+        "semantic",
         "--steps",
         "1000",
         "--out",
@@ -96,11 +97,12 @@ fn run_counts_resets_by_cause_in_its_line_and_its_summary() {
     };
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let causes = ["collision", "stuck", "lost", "blocked"];
     assert!(
-        count("lost") >= 1,
-        "the run this test needs has a lost reset"
+        causes.iter().map(|c| count(c)).sum::<usize>() >= 1,
+        "the run this test needs has a reset"
     );
-    for cause in ["collision", "stuck", "lost", "blocked"] {
+    for cause in causes {
         let n = count(cause);
         assert!(line.contains(&format!("{n} {cause}")), "{cause}: {line}");
         assert_eq!(summary["resets"][cause], n as u64, "{cause}");

@@ -1,42 +1,116 @@
-//! The learner learns in the world: action feedback on the doors household.
+//! The learner learns in the world, over several seeds: each test runs [`SEEDS`] seeds with the
+//! reproduction's start jitter (so that the seeds differ even with a noiseless teacher) and
+//! asserts on the median seed and on the worst one, each with a margin stated beside it
+//! against what was measured.
 
 use std::sync::Arc;
 
-use host_sim::experiment::{self, Mode, RunConfig, StartJitter};
+use firmware_core::LearnerParams;
+use host_sim::experiment::{self, Mode, RunConfig, RunReport, StartJitter};
 use host_sim::registry;
 use host_sim::teacher::FeedbackKind;
 
-#[test]
-fn action_feedback_on_doors_cuts_the_latent_loss_to_under_a_third() {
-    let s = Arc::new(registry::load_scenario("doors").unwrap());
-    let config = RunConfig {
-        mode: Mode::Online(FeedbackKind::Action),
-        steps: 5_000,
-        seed: 0,
-        threshold: Some(1.0),
-        noise: Some(0.0),
-        ..RunConfig::new(s)
+/// Seeds per test.
+const SEEDS: u64 = 8;
+
+/// Runs `config` at seeds 0..SEEDS with the reproduction's start jitter, in parallel.
+fn over_seeds(config: RunConfig) -> Vec<RunReport> {
+    let configs: Vec<RunConfig> = (0..SEEDS)
+        .map(|seed| RunConfig {
+            seed,
+            start_jitter: Some(StartJitter::REPRODUCE),
+            ..config.clone()
+        })
+        .collect();
+    registry::run_all(&configs)
+        .into_iter()
+        .map(|r| r.unwrap())
+        .collect()
+}
+
+/// The median and the largest of `xs`.
+fn median_and_worst(mut xs: Vec<f64>) -> (f64, f64) {
+    xs.sort_by(f64::total_cmp);
+    let n = xs.len();
+    let median = if n % 2 == 1 {
+        xs[n / 2]
+    } else {
+        (xs[n / 2 - 1] + xs[n / 2]) / 2.0
     };
-    let r = experiment::run(&config).unwrap();
-    let first = r.mean_loss(0..500);
-    let last = r.mean_loss(4_500..5_000);
-    println!(
-        "doors/action: first 500 {first:.4}, last 500 {last:.4} (ratio {:.3}), {} corrections, {} collisions, {} laps, resets {:?}, weights {:?}",
-        last / first,
-        r.corrections(),
-        r.collisions(),
-        r.laps(),
-        r.resets,
-        r.final_snapshot.state.average
-    );
-    assert!(last < first / 3.0, "first 500: {first}, last 500: {last}");
-    // Corrections stop growing: fewer in the second half than in the first.
-    let half = r.records[2_499].corrections;
-    assert!(
-        r.corrections() - half < half,
-        "{half} then {}",
-        r.corrections() - half
-    );
+    (median, xs[n - 1])
+}
+
+/// Last-tenth over first-tenth mean latent loss of every seed's run.
+fn ratios(name: &str, runs: &[RunReport]) -> Vec<f64> {
+    runs.iter()
+        .map(|r| {
+            let (first, last) = r.first_last(0.1);
+            println!(
+                "{name} seed {}: first {first:.4}, last {last:.4}, ratio {:.3}, {} corrections, {} laps, resets {:?}",
+                r.seed,
+                last / first,
+                r.corrections(),
+                r.laps(),
+                r.resets
+            );
+            last / first
+        })
+        .collect()
+}
+
+fn doors(kind: FeedbackKind, learner: LearnerParams) -> RunConfig {
+    let s = Arc::new(registry::load_scenario("doors").unwrap());
+    RunConfig {
+        mode: Mode::Online(kind),
+        steps: 5_000,
+        learner,
+        ..RunConfig::new(s)
+    }
+}
+
+/// Action feedback with the paper's learner on doors. Measured (seeds 0–7): last-tenth over
+/// first-tenth loss, median 0.031, worst 0.216 (seed 3). Asserted: median below 0.1 and worst
+/// below 0.5, margins of about 3 and 2.3 times; and every seed's corrections slow down.
+#[test]
+fn action_feedback_on_doors_cuts_the_latent_loss_over_seeds() {
+    let runs = over_seeds(doors(FeedbackKind::Action, LearnerParams::paper()));
+    let (median, worst) = median_and_worst(ratios("doors/action/ogd", &runs));
+    println!("median {median:.3}, worst {worst:.3}");
+    assert!(median < 0.1, "median ratio {median}");
+    assert!(worst < 0.5, "worst ratio {worst}");
+    // Corrections stop growing: fewer in the second half than in the first, on every seed.
+    for r in &runs {
+        let half = r.records[2_499].corrections;
+        assert!(
+            r.corrections() - half < half,
+            "seed {}: {half} then {}",
+            r.seed,
+            r.corrections() - half
+        );
+    }
+}
+
+/// Preference and semantic feedback with the paper's learner on doors. Measured (seeds 0–7):
+/// preference median 0.228, worst 0.797 (seed 7); semantic median 0.038, worst 0.419 (seed 6).
+/// Asserted: preference median below 0.5 and every seed below 1 (it lowers its loss; the
+/// narrowest margin here, 1.25 times); semantic median below 0.15 and worst below 0.8.
+#[test]
+fn preference_and_semantic_feedback_teach_the_paper_learner_over_seeds() {
+    for (kind, median_max, worst_max) in [
+        (FeedbackKind::Preference, 0.5, 1.0),
+        (FeedbackKind::Semantic, 0.15, 0.8),
+    ] {
+        let runs = over_seeds(doors(kind, LearnerParams::paper()));
+        let (median, worst) =
+            median_and_worst(ratios(&format!("doors/{}/ogd", kind.name()), &runs));
+        println!("{}: median {median:.3}, worst {worst:.3}", kind.name());
+        assert!(
+            median < median_max,
+            "{}: median ratio {median}",
+            kind.name()
+        );
+        assert!(worst < worst_max, "{}: worst ratio {worst}", kind.name());
+    }
 }
 
 #[test]
@@ -47,7 +121,7 @@ fn behaviour_cloning_is_fitted_on_ticks_0_to_49_then_frozen() {
             mode: Mode::BehaviourCloning,
             steps: 300,
             seed,
-            learner: firmware_core::LearnerParams::paper(),
+            learner: LearnerParams::paper(),
             start_jitter: Some(StartJitter::REPRODUCE),
             ..RunConfig::new(s.clone())
         };
@@ -82,35 +156,6 @@ fn behaviour_cloning_is_fitted_on_ticks_0_to_49_then_frozen() {
         assert_eq!(
             (r.records[0].x, r.records[0].y),
             (samples[0].pose.x, samples[0].pose.y)
-        );
-    }
-}
-
-/// With the paper's learner (plain OGD, η = 0.01) every kind of feedback teaches the doors task.
-/// (The firmware's default, averaged OGD, learns from action feedback above but not from semantic
-/// feedback on this household: see "Measured" in the `experiment` module's documentation.)
-#[test]
-fn preference_and_semantic_feedback_teach_the_paper_learner() {
-    let s = Arc::new(registry::load_scenario("doors").unwrap());
-    for kind in [FeedbackKind::Preference, FeedbackKind::Semantic] {
-        let config = RunConfig {
-            mode: Mode::Online(kind),
-            steps: 5_000,
-            learner: firmware_core::LearnerParams::paper(),
-            ..RunConfig::new(s.clone())
-        };
-        let r = experiment::run(&config).unwrap();
-        let (first, last) = (r.mean_loss(0..500), r.mean_loss(4_500..5_000));
-        println!(
-            "doors/{}/ogd: first 500 {first:.4}, last 500 {last:.4}, {} corrections, resets {:?}",
-            kind.name(),
-            r.corrections(),
-            r.resets
-        );
-        assert!(
-            last < first / 3.0,
-            "{}: first {first}, last {last}",
-            kind.name()
         );
     }
 }

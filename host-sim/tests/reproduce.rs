@@ -41,7 +41,8 @@ const CSVS: [&str; 6] = [
     "paths.csv",
 ];
 
-const FIGURES: [&str; 7] = [
+const FIGURES: [&str; 8] = [
+    "task_success",
     "variety",
     "noise",
     "noise_sweep",
