@@ -13,11 +13,16 @@
 //! | 3 | action feedback needs the fewest corrections in each household | action's mean corrections are below each other kind's, in every household |
 //! | 4 | more noise gives a higher final loss and more corrections | both rise strictly over σ = 0, 0.25, 0.5, 1.0 |
 //! | 5 | a lower threshold gives a lower final loss and more corrections | over the paper's thresholds 0 … 1, the final loss rises strictly and the corrections fall strictly |
-//! | 6 | the corrections flatten out | every online setting has fewer corrections in its last tenth than in its first |
+//! | 6 | the corrections flatten out | every online setting has fewer corrections in its last tenth than in its first, or none in its last tenth |
 //!
 //! Claim 2's rule before this version was "within 25% of the larger, or within 0.05": at the
 //! losses of a behaviour-cloned policy (0.006–0.015 then) the absolute 0.05 made it impossible
 //! to fail. It is now relative to the two quantities it compares, and the report says so.
+//!
+//! Claim 6's rule was "fewer in the last tenth than in the first". The thresholds 4 and 8, added
+//! with this version, give teachers that never correct at all (0 and 0): their count does not
+//! grow, which is what "flatten out" means, but "fewer" counted them as failing. A setting with
+//! no correction in its last tenth now counts as flattened; the report says so and counts them.
 //!
 //! The claims about learning (1, 3, 4, 5) also say whether the car got anywhere: laps, progress
 //! and resets beside the latent loss, which cannot see a car that circles where the teacher
@@ -443,12 +448,15 @@ pub fn threshold_lowers(paper: &[&Aggregate], all: &[&Aggregate]) -> Verdict {
     Verdict { holds, text }
 }
 
+/// Whether a setting's corrections flattened: fewer in its last tenth than in its first, or
+/// none in its last tenth (claim 6's rule).
+pub fn flattened(a: &Aggregate) -> bool {
+    a.last_tenth_corrections.0 < a.first_tenth_corrections.0 || a.last_tenth_corrections.0 == 0.0
+}
+
 /// Claim 6 over every online setting; `tenth` is the number of steps in a tenth of a run.
 pub fn corrections_flatten(online: &[&Aggregate], tenth: usize) -> Verdict {
-    let bad: Vec<&&Aggregate> = online
-        .iter()
-        .filter(|a| a.last_tenth_corrections.0 >= a.first_tenth_corrections.0)
-        .collect();
+    let bad: Vec<&&Aggregate> = online.iter().filter(|a| !flattened(a)).collect();
     let holds = !online.is_empty() && bad.is_empty();
     let n = online.len().max(1) as f64;
     let first: f64 = online
@@ -461,11 +469,27 @@ pub fn corrections_flatten(online: &[&Aggregate], tenth: usize) -> Verdict {
         .map(|a| a.last_tenth_corrections.0)
         .sum::<f64>()
         / n;
+    let never: Vec<String> = online
+        .iter()
+        .filter(|a| a.total_corrections.0 == 0.0)
+        .map(|a| format!("`{}`", a.setting.key()))
+        .collect();
     let mut text = format!(
         "Corrections in the first tenth → last tenth, mean over the {} online settings: {first:.1} \
-         → {last:.1}.",
+         → {last:.1}. A setting counts as flattened when it has fewer corrections in its last tenth \
+         than in its first, or none in its last tenth (its count has stopped growing).",
         online.len()
     );
+    if !never.is_empty() {
+        let _ = write!(
+            text,
+            " {} of them never corrected at all ({}): the threshold is above every loss the \
+             teacher perceives, so the count is flat from the start; the rule was \"fewer in the \
+             last tenth\" before these settings existed, and would count them as failing.",
+            never.len(),
+            never.join(", ")
+        );
+    }
     if !bad.is_empty() {
         let _ = write!(
             text,
@@ -781,7 +805,21 @@ mod tests {
         let v = corrections_flatten(&[&a, &b], 500);
         assert!(v.holds, "{}", v.text);
         assert!(v.text.contains("55.0 → 34.5"), "{}", v.text);
-        // The boundary: as many late as early is not flattening.
+        // None at all is flat; so is none late after some early; but one late after none early
+        // is rising.
+        let mut never = mk(0.0, 0.0, 0.0);
+        never.total_corrections = (0.0, 0.0);
+        let v = corrections_flatten(&[&a, &never], 500);
+        assert!(v.holds, "{}", v.text);
+        assert!(
+            v.text
+                .contains("1 of them never corrected at all (`noise-0`)"),
+            "{}",
+            v.text
+        );
+        let rising = mk(0.0, 0.0, 1.0);
+        assert!(!corrections_flatten(&[&a, &rising], 500).holds);
+        // The boundary: as many late as early (and some) is not flattening.
         let c = mk(2.0, 200.0, 200.0);
         let v = corrections_flatten(&[&a, &c], 500);
         assert!(!v.holds);

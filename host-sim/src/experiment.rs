@@ -379,8 +379,8 @@ pub struct StepRecord {
     pub reset: Option<ResetReason>,
     /// Laps completed so far.
     pub lap: u32,
-    /// Progress along the path so far, summed over every episode (m; see
-    /// [`Episode::total_progress`]).
+    /// How far along the path the car has come so far (m; laps times the path's length plus the
+    /// current lap's progress, see [`Episode::path_progress`]).
     pub progress: f64,
     /// Pose where the action was chosen.
     pub x: f64,
@@ -459,7 +459,7 @@ impl RunReport {
         self.resets[0]
     }
 
-    /// Progress along the path over the run (m; see [`Episode::total_progress`]).
+    /// How far along the path the car came over the run (m; see [`Episode::path_progress`]).
     pub fn progress(&self) -> f64 {
         self.records.last().map_or(0.0, |r| r.progress)
     }
@@ -591,7 +591,8 @@ pub const RESET_CAUSES: [&str; 4] = ["collision", "stuck", "lost", "blocked"];
 pub struct TaskSuccess {
     /// Laps completed.
     pub laps: u32,
-    /// Progress along the path, summed over every episode (m).
+    /// How far along the path the car came (m): laps times the path's length plus the last
+    /// lap's progress; resets take back the progress of their lap.
     pub progress: f64,
     /// Resets by cause: collision, stuck, lost, blocked ([`RESET_CAUSES`]).
     pub resets: [u32; 4],
@@ -783,7 +784,7 @@ pub fn run_with(
             collision: result.reset == Some(ResetReason::Collision),
             reset: result.reset,
             lap: episode.laps(),
-            progress: episode.total_progress(),
+            progress: episode.path_progress(),
             x: pose.x,
             y: pose.y,
             theta: pose.theta,

@@ -45,7 +45,8 @@
 //! **final latent loss** of a trial is its mean latent loss over the last tenth of the steps (one
 //! step's loss depends on where the car happens to be); the report gives its mean and standard
 //! deviation across trials. **Task success** is reported beside it: laps, progress along the path
-//! (metres, summed over episodes) and resets by cause. Nothing in these files depends on the
+//! (metres: laps times the path's length plus the current lap's progress; a reset takes back its
+//! lap's progress) and resets by cause. Nothing in these files depends on the
 //! machine, the number of threads or the sharding: a merged result is byte-identical to a
 //! one-machine run. The wall time is printed, never written into them.
 //!
@@ -347,7 +348,7 @@ pub struct TrialResult {
     pub latent: Vec<f32>,
     /// Cumulative corrections per step.
     pub corrections: Vec<u32>,
-    /// Progress along the path per step (m, summed over episodes).
+    /// Progress along the path per step (m; see [`crate::sim::Episode::path_progress`]).
     pub progress: Vec<f64>,
     /// Laps completed so far, per step.
     pub laps: Vec<u32>,
@@ -1504,7 +1505,7 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
     ));
     figure::write_chart(
         &figs.join("task_success"),
-        "Task success: progress along the path (m, summed over resets; mean ± std across trials)",
+        "Task success: progress along the path (m; a reset takes back its lap's; mean ± std across trials)",
         &panels,
         3,
         (560, 400),
@@ -1705,8 +1706,9 @@ fn report(
          used.\n\
          * **Final latent loss**: a trial's mean latent loss over its last tenth ({k} steps); the \
          first-tenth loss likewise. Numbers are mean ± sample standard deviation across trials.\n\
-         * **Task success**, beside the latent loss: laps, progress along the path (metres, summed over \
-         the run's episodes, so a reset keeps what was driven before it) and resets by cause \
+         * **Task success**, beside the latent loss: laps, progress along the path (metres: the laps \
+         completed times the path's length plus the progress into the current lap; a reset puts the car \
+         back at the start, so it takes back the progress of its lap) and resets by cause \
          (collision, stuck, lost, blocked), per trial, averaged. A latent loss of zero cannot tell a car \
          that laps from one that circles where the teacher would circle too.\n\
          * Figures: latent-loss curves are a centred moving mean over {w} steps ({:.0}% of the run) of \

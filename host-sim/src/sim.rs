@@ -135,8 +135,6 @@ pub struct Episode {
     s: f64,
     /// Progress since the start of the episode (m, signed).
     progress: f64,
-    /// Progress over every episode so far (m, signed): what a reset does not take back.
-    total_progress: f64,
     best: f64,
     since_progress: u32,
     episode_laps: u32,
@@ -160,7 +158,6 @@ impl Episode {
             params: CarParams::MUSHR,
             s: 0.0,
             progress: 0.0,
-            total_progress: 0.0,
             best: 0.0,
             since_progress: 0,
             episode_laps: 0,
@@ -206,11 +203,13 @@ impl Episode {
         self.s
     }
 
-    /// Progress along the path summed over every episode so far (m): the distance driven along
-    /// the path, forward positive, that resets do not take back. A lap of a closed path adds its
-    /// length.
-    pub fn total_progress(&self) -> f64 {
-        self.total_progress
+    /// How far along the path the car has come over the run (m): the laps it completed times
+    /// the path's length, plus its progress into the current lap (forward positive). A reset
+    /// puts the car back at the start of its lap, and its progress with it, so a car that keeps
+    /// being reset before a lap ends makes none.
+    pub fn path_progress(&self) -> f64 {
+        let length = self.scenario.path.length();
+        self.laps as f64 * length + (self.progress - self.episode_laps as f64 * length)
     }
 
     /// The scenario.
@@ -252,9 +251,7 @@ impl Episode {
         let path = &self.scenario.path;
         let p = (self.car.pose.x, self.car.pose.y);
         let (s, d) = path.project_near(p, self.s, 1.0, 2.0);
-        let delta = path.delta(self.s, s);
-        self.progress += delta;
-        self.total_progress += delta;
+        self.progress += path.delta(self.s, s);
         self.s = s;
         let mut lap = false;
         if path.is_closed() {
