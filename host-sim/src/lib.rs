@@ -27,6 +27,8 @@
 //! * [`registry`]: built-in scenarios and experiments by name; parallel runs.
 //! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
 //!   controller (`hil_mock`, the firmware) over a CAN link.
+//! * [`learners`]: `host-sim learners`, every learner × feedback × noise × world, and the rule
+//!   that picks `host-sim run`'s default learner from it (`docs/learners.md`).
 //! * [`households`]: the generator of the built-in household maps.
 //! * [`plot`]: drawings: the lattice (SVG), a scenario and a run's poses (PNG).
 //! * [`figure`]: the reproduction's charts (mean ± std bands) and map panels, as PNG and SVG.
@@ -50,6 +52,7 @@ pub mod claims;
 pub mod experiment;
 pub mod figure;
 pub mod households;
+pub mod learners;
 pub mod map;
 pub mod path;
 pub mod plot;

@@ -98,6 +98,23 @@ enum Command {
     /// Run the reproduction's claims with every teacher's weights at ×1/4, ×1/2, ×1, ×2 and ×4
     /// of the calibrated scale, and write the table of verdicts (Markdown).
     ScaleSweep(ScaleSweepArgs),
+    /// Every online learner against every kind of feedback, with and without 20% random
+    /// answers, in every world (docs/learners.md), and the learner `run` uses by default for
+    /// each kind of feedback, chosen from it by a stated rule. Writes Markdown.
+    Learners {
+        /// Seeds per cell.
+        #[arg(long, default_value_t = 3)]
+        seeds: u32,
+        /// Steps per run.
+        #[arg(long, default_value_t = 5_000)]
+        steps: u32,
+        /// Worker threads (default: one per core). The output does not depend on it.
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// The Markdown file to write.
+        #[arg(long, default_value = "out/learners.md")]
+        out: PathBuf,
+    },
     /// Calibrate the teachers' scale from the paper's words (docs/reproduction/CALIBRATION.md):
     /// the path follower along each teacher's lap, the targets' exact intervals, the rule's
     /// scale, and the latent-loss statistics it rests on. Prints Markdown.
@@ -149,9 +166,10 @@ struct RunArgs {
     /// (default: the scenario's, 0 unless it says otherwise).
     #[arg(long, allow_negative_numbers = true)]
     noise: Option<f32>,
-    /// Online learner: ogd, ogd-decaying, averaged-ogd (default), adagrad or coactive.
-    #[arg(long, default_value = "averaged-ogd", value_parser = parse_kind)]
-    learner: LearnerKind,
+    /// Online learner: ogd, ogd-decaying, averaged-ogd, adagrad or coactive. Default: the one
+    /// docs/learners.md chose for the kind of feedback (`host-sim learners`).
+    #[arg(long, value_parser = parse_kind)]
+    learner: Option<LearnerKind>,
     /// Step size (default: the learner's own: 0.01 for the OGD family, 0.1 AdaGrad, 1 coactive).
     #[arg(long, allow_negative_numbers = true)]
     step: Option<f32>,
@@ -337,7 +355,10 @@ fn parse_mode(s: &str) -> Result<Mode, String> {
 
 fn run_config(args: &RunArgs) -> Result<RunConfig> {
     let scenario = load_scenario(&args.scenario)?;
-    let mut learner = LearnerParams::new(args.learner);
+    let kind = args
+        .learner
+        .unwrap_or_else(|| host_sim::learners::default_learner(args.feedback));
+    let mut learner = LearnerParams::new(kind);
     if let Some(step) = args.step {
         learner = learner.with_step(step);
     }
@@ -536,6 +557,35 @@ fn scale_sweep(args: &ScaleSweepArgs) -> Result<()> {
     Ok(())
 }
 
+fn learners(seeds: u32, steps: u32, jobs: Option<usize>, out: &Path) -> Result<()> {
+    use host_sim::learners::{self, Options};
+    let o = Options { seeds, steps };
+    let pool = worker_pool(jobs)?;
+    if let Some(parent) = out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        prepare_out(parent)?;
+    }
+    let runs = learners::cells().len() * seeds as usize;
+    let bar = progress_bar(
+        runs as u64,
+        "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} runs, {eta} left",
+    );
+    let started = Instant::now();
+    let cells = pool.install(|| learners::run_table(&o, &|| bar.inc(1)))?;
+    bar.finish_and_clear();
+    let text = learners::markdown(&o, &cells);
+    std::fs::write(out, &text).with_context(|| format!("{}: cannot write", out.display()))?;
+    for line in text.lines().filter(|l| l.starts_with("**Chosen")) {
+        println!("{line}");
+    }
+    println!(
+        "wrote {} ({runs} runs on {} threads in {:.1} s)",
+        out.display(),
+        pool.current_num_threads(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
 fn print_outcome(out: &Path, report: &str) {
     for line in report
         .lines()
@@ -681,6 +731,12 @@ fn main() -> ExitCode {
         Command::Reproduce(args) => reproduce(args),
         Command::Merge { dirs, out } => merge(dirs, out),
         Command::ScaleSweep(args) => scale_sweep(args),
+        Command::Learners {
+            seeds,
+            steps,
+            jobs,
+            out,
+        } => learners(*seeds, *steps, *jobs, out),
         Command::Calibrate => host_sim::calibrate::run().map(|c| {
             print!("{}", host_sim::calibrate::markdown(&c));
         }),
