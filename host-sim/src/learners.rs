@@ -49,9 +49,9 @@ pub const NOISES: [f32; 2] = [0.0, 0.2];
 /// `host-sim run`'s default learner for each kind of feedback, chosen by the rule of the module
 /// documentation on the table of `docs/learners.md`.
 pub const DEFAULT_LEARNERS: [(FeedbackKind, LearnerKind); 3] = [
-    (FeedbackKind::Action, LearnerKind::AveragedOgd),
-    (FeedbackKind::Preference, LearnerKind::AveragedOgd),
-    (FeedbackKind::Semantic, LearnerKind::AveragedOgd),
+    (FeedbackKind::Action, LearnerKind::AdaGrad),
+    (FeedbackKind::Preference, LearnerKind::Coactive),
+    (FeedbackKind::Semantic, LearnerKind::AdaGrad),
 ];
 
 /// The default learner of `run` for `mode`: the table's choice for its kind of feedback; the

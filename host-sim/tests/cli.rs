@@ -77,6 +77,8 @@ fn run_counts_resets_by_cause_in_its_line_and_its_summary() {
         "doors",
         "--feedback",
         "semantic",
+        "--learner",
+        "averaged-ogd",
         "--steps",
         "1000",
         "--out",
