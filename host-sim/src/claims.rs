@@ -40,7 +40,7 @@ pub const CLAIMS: [&str; 6] = [
     "Action feedback needs the fewest corrections in each household",
     "More noise gives a higher final latent loss and more corrections",
     "A lower threshold gives a lower final loss and more corrections",
-    "The corrections flatten out (fewer in the last tenth of a run than in the first)",
+    "The corrections flatten out (fewer in the last tenth of a run than in the first, or none)",
 ];
 
 /// The largest relative change of behaviour cloning's loss that still counts as flat.
@@ -63,6 +63,11 @@ impl Verdict {
         } else {
             "**does not hold**"
         }
+    }
+
+    /// `holds` or `does not hold`.
+    pub fn plain(&self) -> &'static str {
+        if self.holds { "holds" } else { "does not hold" }
     }
 }
 

@@ -167,7 +167,7 @@ fn noise(o: &ExperimentOptions) -> Result<Vec<RunConfig>> {
 fn thresholds(o: &ExperimentOptions) -> Result<Vec<RunConfig>> {
     let s = Arc::new(load_scenario("stairs-chairs")?);
     let mut out = Vec::new();
-    for t in [0.0, 0.25, 0.5, 0.75, 1.0] {
+    for t in crate::reproduce::THRESHOLDS {
         let base = RunConfig {
             threshold: Some(t),
             ..RunConfig::new(s.clone())
@@ -191,7 +191,7 @@ pub const EXPERIMENTS: &[Experiment] = &[
     },
     Experiment {
         name: "thresholds",
-        description: "action feedback on stairs-chairs with correction thresholds 0 to 1",
+        description: "action feedback on stairs-chairs with correction thresholds 0 to 8",
         configs: thresholds,
     },
 ];

@@ -710,7 +710,14 @@ pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Vec<TrialResult>)> {
     ensure!(!dirs.is_empty(), "merge needs at least one shard folder");
     let mut grid: Option<(Options, u32)> = None;
     let mut seen = BTreeMap::new();
+    // Folders without a manifest: a shard writes it last, so these did not finish (a failed or
+    // cancelled job); they are named with the missing shards below.
+    let mut unfinished: Vec<String> = Vec::new();
     for d in dirs {
+        if d.is_dir() && !d.join("manifest.json").exists() {
+            unfinished.push(d.display().to_string());
+            continue;
+        }
         let (o, shard) = read_manifest(d)?;
         match grid {
             None => grid = Some((o, shard.count)),
@@ -732,11 +739,31 @@ pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Vec<TrialResult>)> {
             );
         }
     }
+    let unfinished_note = if unfinished.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; {} has no manifest.json (a shard writes it last, so it did not finish)",
+            unfinished.join(", ")
+        )
+    };
     let Some((o, n)) = grid else {
-        bail!("no shards");
+        bail!("no finished shard among the folders{unfinished_note}");
     };
     let missing: Vec<u32> = (0..n).filter(|i| !seen.contains_key(i)).collect();
-    ensure!(missing.is_empty(), "shards {missing:?} of {n} are missing");
+    ensure!(
+        missing.is_empty(),
+        "shards {missing:?} of {n} are missing{unfinished_note}: run `host-sim reproduce --trials {} \
+         --steps {} --seed {}{} --shard INDEX/{n}` again for each missing INDEX, then merge again",
+        o.trials,
+        o.steps,
+        o.seed,
+        if o.teacher_scale != 1.0 {
+            format!(" --teacher-scale {}", o.teacher_scale)
+        } else {
+            String::new()
+        }
+    );
     let all = settings();
     let mut results = Vec::new();
     for (index, dir) in &seen {
@@ -1874,10 +1901,7 @@ pub fn scale_sweep_markdown(o: &Options, rows: &[(f32, Vec<Verdict>)]) -> String
         "---|".repeat(rows.len())
     );
     for (i, c) in CLAIMS.iter().enumerate() {
-        let cells: Vec<&str> = rows
-            .iter()
-            .map(|(_, v)| if v[i].holds { "holds" } else { "does not hold" })
-            .collect();
+        let cells: Vec<&str> = rows.iter().map(|(_, v)| v[i].plain()).collect();
         let _ = writeln!(r, "| {} | {c} | {} |", i + 1, cells.join(" | "));
     }
     let _ = writeln!(
@@ -1889,7 +1913,7 @@ pub fn scale_sweep_markdown(o: &Options, rows: &[(f32, Vec<Verdict>)]) -> String
     for (f, v) in rows {
         let _ = writeln!(r, "## Teachers' scale ×{f}\n");
         for (i, (c, v)) in CLAIMS.iter().zip(v).enumerate() {
-            let _ = writeln!(r, "**{}. {c}: {}** {}\n", i + 1, v.word(), v.text);
+            let _ = writeln!(r, "* **{}. {c}**: {}. {}\n", i + 1, v.plain(), v.text);
         }
     }
     r

@@ -178,7 +178,28 @@ fn merged_shards_are_byte_identical_to_one_machine() {
     let s = |i: usize| shard_dirs[i].to_str().unwrap();
     let o = host_sim(&["merge", s(0), s(1), "--out", out.to_str().unwrap()]);
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("missing"));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("shards [2] of 3 are missing"), "{e}");
+    assert!(e.contains("--shard INDEX/3` again"), "{e}");
+    // A shard that did not finish (its folder without a manifest, as a failed SLURM task leaves
+    // it) is named beside the missing index, so `sbatch --dependency=afterany` can merge.
+    let failed = tmp.path().join("failed");
+    std::fs::create_dir_all(failed.join("trials")).unwrap();
+    let o = host_sim(&[
+        "merge",
+        s(0),
+        s(1),
+        failed.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        e.contains("shards [2] of 3 are missing")
+            && e.contains("failed has no manifest.json (a shard writes it last"),
+        "{e}"
+    );
     let o = host_sim(&[
         "merge",
         s(0),
