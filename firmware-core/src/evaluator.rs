@@ -383,15 +383,6 @@ const SAMPLE_SCALE: [f32; SAMPLES + 1] = {
     t
 };
 
-/// The along-track and cross-track offsets (m, signed: ahead and left positive) of the end `e`
-/// of a trajectory against the path reference `p`, whose heading's sine and cosine are `s`, `c`.
-#[inline]
-fn end_offsets(p: &PathReference, s: f32, c: f32, e: &crate::lattice::Pose) -> (f32, f32) {
-    let dx = e.x - p.x;
-    let dy = e.y - p.y;
-    (dx * c + dy * s, dy * c - dx * s)
-}
-
 /// The cross-track error `|cross|` (m) of every trajectory's end against the path reference: the
 /// distance from the end to the line through the reference point along the path's heading.
 ///
@@ -414,7 +405,11 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     let (s, c) = (libm::sinf(p.heading), libm::cosf(p.heading));
     let mut out = [0.0f32; MAX_ACTIONS];
     for (d, t) in out.iter_mut().zip(TRAJECTORIES.iter()) {
-        let (_, cross) = end_offsets(p, s, c, &t.end());
+        let e = t.end();
+        // The same operations as the cross-track part of `path_and_side`.
+        let dx = e.x - p.x;
+        let dy = e.y - p.y;
+        let cross = dy * c - dx * s;
         *d = libm::fabsf(cross);
     }
     out
@@ -426,7 +421,10 @@ fn path_and_side(obs: &Observation, rows: &mut [Features; MAX_ACTIONS]) {
     let (s, c) = (libm::sinf(p.heading), libm::cosf(p.heading));
     for (row, t) in rows.iter_mut().zip(TRAJECTORIES.iter()) {
         let e = t.end();
-        let (along, cross) = end_offsets(p, s, c, &e);
+        let dx = e.x - p.x;
+        let dy = e.y - p.y;
+        let along = dx * c + dy * s;
+        let cross = dy * c - dx * s;
         let error = libm::fabsf(along) + libm::fabsf(cross);
         row[Feature::Path.index()] = if error < PATH_CLIP { error } else { PATH_CLIP };
         row[Feature::Right.index()] = -RIGHT_SCALE * e.y;

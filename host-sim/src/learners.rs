@@ -106,8 +106,14 @@ pub struct Cell {
     pub corrections: f64,
 }
 
+/// A cell's coordinates: world, kind of feedback, probability of a random answer, learner.
+pub type CellKey = (&'static str, FeedbackKind, f32, LearnerKind);
+
+/// One run's figures: final latent loss, laps, resets, corrections.
+type RunFigures = (f64, f64, f64, f64);
+
 /// Every (world, feedback, noise, learner) of the table, in its order.
-pub fn cells() -> Vec<(&'static str, FeedbackKind, f32, LearnerKind)> {
+pub fn cells() -> Vec<CellKey> {
     let mut out = Vec::new();
     for feedback in FeedbackKind::ALL {
         for world in WORLDS {
@@ -138,11 +144,11 @@ pub fn run_table(o: &Options, done: &(dyn Fn() + Sync)) -> Result<Vec<Cell>> {
     for w in WORLDS {
         worlds.insert(w, Arc::new(registry::load_scenario(w)?));
     }
-    let jobs: Vec<((&'static str, FeedbackKind, f32, LearnerKind), u32)> = cells()
+    let jobs: Vec<(CellKey, u32)> = cells()
         .into_iter()
         .flat_map(|c| (0..o.seeds).map(move |s| (c, s)))
         .collect();
-    let runs: Vec<Result<(f64, f64, f64, f64)>> = jobs
+    let runs: Vec<Result<RunFigures>> = jobs
         .par_iter()
         .map(|&((world, feedback, noise, learner), seed)| {
             let config = RunConfig {
@@ -172,14 +178,13 @@ pub fn run_table(o: &Options, done: &(dyn Fn() + Sync)) -> Result<Vec<Cell>> {
             ))
         })
         .collect();
-    let runs: Vec<(f64, f64, f64, f64)> = runs.into_iter().collect::<Result<_>>()?;
+    let runs: Vec<RunFigures> = runs.into_iter().collect::<Result<_>>()?;
     let n = o.seeds as usize;
     Ok(cells()
         .into_iter()
         .zip(runs.chunks(n))
         .map(|((world, feedback, noise, learner), r)| {
-            let mean =
-                |f: &dyn Fn(&(f64, f64, f64, f64)) -> f64| r.iter().map(f).sum::<f64>() / n as f64;
+            let mean = |f: &dyn Fn(&RunFigures) -> f64| r.iter().map(f).sum::<f64>() / n as f64;
             Cell {
                 world,
                 feedback,
