@@ -33,10 +33,10 @@ enum RefFeedback {
 
 /// The cross-track error of trajectory `a`'s end against the path through `(x, y)` with heading
 /// `h`: the distance from the end to that line, `|(e − p) × (cos h, sin h)|`. The sine and cosine
-/// are `libm`'s, as the car's; everything else is written out here.
+/// are `libm::sincosf`'s, as the car's; everything else is written out here.
 fn rcross(a: usize, (x, y, h): (f32, f32, f32)) -> f32 {
     let e = firmware_core::lattice::trajectory(ActionIndex::new(a).unwrap()).end();
-    let (s, c) = (libm::sinf(h), libm::cosf(h));
+    let (s, c) = libm::sincosf(h);
     ((e.y - y) * c - (e.x - x) * s).abs()
 }
 
