@@ -26,6 +26,7 @@
 //! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
 //!   controller (`hil_mock`, the firmware) over a CAN link.
 //! * [`households`]: the generator of the built-in household maps.
+//! * [`generator`]: seeded households (floor plan, path, objects) as map and scenario files.
 //! * [`plot`]: drawings: the lattice (SVG), a scenario and a run's poses (PNG).
 //! * [`figure`]: the reproduction's charts (mean ± std bands) and map panels, as PNG and SVG.
 //! * [`reproduce`]: `host-sim reproduce` and `host-sim merge`: the paper's section 6 end to end,
@@ -41,6 +42,7 @@
 pub mod car;
 pub mod experiment;
 pub mod figure;
+pub mod generator;
 pub mod households;
 pub mod map;
 pub mod path;
