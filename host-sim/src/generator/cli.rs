@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use rayon::prelude::*;
 
-use super::world::{DEFAULT_ATTEMPTS, GenerateError, Options, World, generate};
+use super::options::{DEFAULT_ATTEMPTS, Options};
+use super::world::{GenerateError, World, generate};
 use crate::scenario::Scenario;
 use crate::teacher;
 

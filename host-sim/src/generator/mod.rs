@@ -91,12 +91,15 @@
 
 pub mod check;
 pub mod cli;
+mod draft;
 mod furnish;
 mod geometry;
+mod lanes;
+mod options;
 mod plan;
 mod world;
 
-pub use world::{
-    DEFAULT_ATTEMPTS, GenerateError, HALLWAY_LIMITS, MAX_ATTEMPTS, Options, OptionsError, Refusal,
-    Summary, ValidOptions, Why, World, generate,
+pub use options::{
+    DEFAULT_ATTEMPTS, HALLWAY_LIMITS, MAX_ATTEMPTS, Options, OptionsError, ValidOptions,
 };
+pub use world::{GenerateError, Refusal, Summary, Why, World, generate};
