@@ -73,7 +73,8 @@ impl Draft {
             })
             .collect();
         let meta = MapMeta::parse(&yaml, Path::new(&format!("{}.yaml", o.name)))?;
-        let grid = grid_of(&pgm, &meta);
+        let cells = |mm: i32| (mm / super::geometry::GRID) as usize;
+        let grid = grid_of(&pgm, (cells(plan.size.0), cells(plan.size.1)), &meta)?;
         let points: Vec<(f64, f64)> = plan.waypoints.iter().map(|&(x, y)| (m(x), m(y))).collect();
         let path =
             RefPath::new(points, true).map_err(|e| anyhow::anyhow!("the plan's path: {e}"))?;
@@ -159,21 +160,25 @@ impl Draft {
 
 /// The grid the map's files describe, read through the YAML's thresholds: a cell is free when
 /// map_server reads its pixel as free; every other cell is occupied.
-fn grid_of(pgm: &[u8], meta: &MapMeta) -> OccupancyGrid {
-    // The header is "P5\n{w} {h}\n255\n" (Canvas::to_pgm).
-    let text = String::from_utf8_lossy(&pgm[..pgm.len().min(32)]).into_owned();
-    let mut fields = text.split_ascii_whitespace().skip(1);
-    let mut next = || -> usize { fields.next().and_then(|t| t.parse().ok()).unwrap_or(0) };
-    let (w, h) = (next(), next());
-    let data = &pgm[pgm.len() - w * h..];
+fn grid_of(pgm: &[u8], (w, h): (usize, usize), meta: &MapMeta) -> anyhow::Result<OccupancyGrid> {
+    // The pixels, `w · h` bytes, top row first, end the PGM (Canvas::to_pgm).
+    let data = pgm
+        .len()
+        .checked_sub(w * h)
+        .map(|start| &pgm[start..])
+        .ok_or_else(|| anyhow::anyhow!("the drawn map holds fewer than {w} × {h} pixels"))?;
     let free: Vec<bool> = data
         .iter()
         .map(|&v| meta.classify(f64::from(v), 255.0) == Cell::Free)
         .collect();
-    OccupancyGrid::from_fn(w, h, meta.resolution, meta.origin, |c, r| {
+    Ok(OccupancyGrid::from_fn(
+        w,
+        h,
+        meta.resolution,
+        meta.origin,
         // Image row 0 is the top; grid row 0 the bottom.
-        !free[(h - 1 - r) * w + c]
-    })
+        |c, r| !free[(h - 1 - r) * w + c],
+    ))
 }
 
 fn description(plan: &Plan, o: &ValidOptions) -> String {
