@@ -30,6 +30,7 @@
 //! * [`learners`]: `host-sim learners`, every learner × feedback × noise × world, and the rule
 //!   that picks `host-sim run`'s default learner from it (`docs/learners.md`).
 //! * [`households`]: the generator of the built-in household maps.
+//! * [`generator`]: seeded households (floor plan, path, objects) as map and scenario files.
 //! * [`plot`]: drawings: the lattice (SVG), a scenario and a run's poses (PNG).
 //! * [`figure`]: the reproduction's charts (mean ± std bands) and map panels, as PNG and SVG.
 //! * [`calibrate`]: `host-sim calibrate`, the procedure that fixes the teachers' scale from the
@@ -51,6 +52,7 @@ pub mod check;
 pub mod claims;
 pub mod experiment;
 pub mod figure;
+pub mod generator;
 pub mod households;
 pub mod learners;
 pub mod map;

@@ -67,6 +67,8 @@ enum Command {
         #[arg(long, default_value = "host-sim/scenarios/maps")]
         out: PathBuf,
     },
+    /// Generate a household from a seed: DIR/NAME.pgm + .yaml (map_server) and DIR/NAME.toml.
+    Generate(host_sim::generator::cli::GenerateArgs),
     /// Draw the 64 trajectories of the lattice into an SVG file.
     Lattice {
         /// The SVG file to write.
@@ -724,6 +726,7 @@ fn main() -> ExitCode {
                 println!("wrote {f}");
             }
         }),
+        Command::Generate(args) => host_sim::generator::cli::run(args),
         Command::Lattice { out } => host_sim::plot::lattice_svg(out).map(|()| {
             println!("wrote {}", out.display());
         }),
