@@ -1,8 +1,8 @@
 //! The teachers' calibration (`docs/reproduction/CALIBRATION.md`): the procedure, run again,
 //! prints what the document holds, and the presets carry the scales its rule gave.
 
-use host_sim::calibrate;
-use host_sim::teacher::{PRESETS, scaled};
+use host_sim::teach::calibrate;
+use host_sim::world::teacher::{PRESETS, scaled};
 
 fn documented() -> String {
     let path = concat!(

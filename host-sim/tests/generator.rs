@@ -6,11 +6,12 @@ use std::path::Path;
 use std::process::{Command, Output};
 use std::sync::Arc;
 
-use host_sim::experiment::{self, Mode, RunConfig, fnv1a};
-use host_sim::generator::{self, GenerateError, Options, OptionsError, World, check};
-use host_sim::map::Cell;
-use host_sim::scenario::Scenario;
-use host_sim::teacher::{PRESETS, TeacherSpec};
+use host_sim::teach::experiment::{self, Mode, RunConfig};
+use host_sim::teach::record::fnv1a;
+use host_sim::world::generator::{self, GenerateError, Options, OptionsError, World, check};
+use host_sim::world::map::Cell;
+use host_sim::world::scenario::Scenario;
+use host_sim::world::teacher::{PRESETS, TeacherSpec};
 use rayon::prelude::*;
 
 fn host_sim(args: &[&str]) -> Output {

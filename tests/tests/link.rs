@@ -24,8 +24,9 @@ use hil_mock::transport::record::{RecordingLink, read_log};
 use hil_mock::transport::slcan::SlcanLink;
 use hil_mock::transport::udp::UdpLink;
 use hil_mock::transport::{Link, LinkAddress};
-use host_sim::experiment::{self, CarLink, RunConfig, RunReport};
-use host_sim::remote::{RemoteCar, RemoteConfig, RemoteStats};
+use host_sim::teach::experiment::{self, CarLink, RunConfig};
+use host_sim::teach::record::RunReport;
+use host_sim::teach::remote::{RemoteCar, RemoteConfig, RemoteStats};
 use protocol::car::{CarConfig, CarStats, Persisted};
 use protocol::isotp::FrameMode;
 use protocol::link::{Inbox, Received, transmit};
@@ -35,7 +36,7 @@ use protocol::stream::Direction;
 const SEED: u64 = 11;
 
 fn config(steps: u32) -> RunConfig {
-    let scenario = host_sim::registry::load_scenario("doors").unwrap();
+    let scenario = host_sim::world::registry::load_scenario("doors").unwrap();
     RunConfig {
         steps,
         seed: SEED,

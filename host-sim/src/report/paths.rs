@@ -1,0 +1,130 @@
+//! The laps drawn on the maps: a frozen learner (or the teacher) driven from the start.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use anyhow::Result;
+use firmware_core::LearnerSnapshot;
+
+use super::grid::{HOUSEHOLDS, Options, PATH_TICKS, paper_learner};
+use crate::teach::experiment::{self, CarLink, InProcessLink};
+use crate::world::scenario::Scenario;
+use crate::world::sim::Episode;
+use crate::world::teacher::Teacher;
+
+/// A lap driven for a path figure.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathTrace {
+    /// Positions of the rear axle, the start first.
+    pub points: Vec<(f64, f64)>,
+    /// Why it ended: `lap`, a reset reason (`collision`, `stuck`, `lost`, `blocked`) or `ticks`.
+    pub end: String,
+    /// Mean true latent loss of the actions along it (the setting's teacher, without noise).
+    pub mean_latent_loss: f64,
+}
+
+impl PathTrace {
+    /// Its loss with how it ended, so a short lap that ended in a reset does not read as the
+    /// best: "0.010 (lost after 197 ticks)", "0.027 (a lap in 382 ticks)".
+    pub fn loss_and_end(&self) -> String {
+        let ticks = self.points.len().saturating_sub(1);
+        let how = match self.end.as_str() {
+            "lap" => format!("a lap in {ticks} ticks"),
+            "ticks" => format!("no lap in {ticks} ticks"),
+            reset => format!("{reset} after {ticks} ticks"),
+        };
+        format!("{:.3} ({how})", self.mean_latent_loss)
+    }
+}
+
+/// Drives `snapshot`'s learner, frozen, from the scenario's start for at most `max_ticks`.
+pub fn drive_lap(
+    scenario: &Arc<Scenario>,
+    snapshot: &LearnerSnapshot,
+    teacher: crate::world::teacher::TeacherSpec,
+    max_ticks: u32,
+) -> Result<PathTrace> {
+    let mut link = InProcessLink::new(snapshot.params)?;
+    link.restore(snapshot)?;
+    let mut judge = Teacher::new(
+        crate::world::teacher::TeacherSpec {
+            noise: 0.0,
+            ..teacher
+        },
+        0,
+    );
+    let mut episode = Episode::new(scenario.clone());
+    let start = episode.car().pose;
+    let mut points = vec![(start.x, start.y)];
+    let mut loss = 0.0f64;
+    let mut acted = 0u32;
+    let mut end = "ticks".to_string();
+    for tick in 0..max_ticks {
+        let obs = episode.observe();
+        let decision = link.act(tick, &obs)?;
+        let j = judge
+            .judge(&obs)
+            .map_err(|e| anyhow::anyhow!("tick {tick}: observation refused: {e}"))?;
+        if let Some(a) = decision.action {
+            loss += j.latent_loss(a) as f64;
+            acted += 1;
+        }
+        let r = episode.drive(decision.action);
+        if let Some(reason) = r.reset {
+            end = if r.lap { "lap" } else { reason.name() }.to_string();
+            break;
+        }
+        let p = episode.car().pose;
+        points.push((p.x, p.y));
+        if r.lap {
+            end = "lap".into();
+            break;
+        }
+    }
+    Ok(PathTrace {
+        points,
+        end,
+        mean_latent_loss: if acted > 0 { loss / acted as f64 } else { 0.0 },
+    })
+}
+
+/// The teacher's own lap of every household (purple in the path figures).
+pub(crate) fn teacher_laps(
+    o: &Options,
+    households: &BTreeMap<&'static str, Arc<Scenario>>,
+) -> Result<BTreeMap<&'static str, PathTrace>> {
+    let mut laps = BTreeMap::new();
+    for h in HOUSEHOLDS {
+        let s = &households[h];
+        let teacher = crate::world::teacher::TeacherSpec {
+            weights: crate::world::teacher::scaled(&s.teacher.weights, o.teacher_scale),
+            ..s.teacher
+        };
+        let snap = experiment::learner_with(paper_learner(), teacher.weights)?;
+        laps.insert(h, drive_lap(s, &snap, teacher, PATH_TICKS)?);
+    }
+    Ok(laps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_path_s_loss_is_shown_with_how_it_ended() {
+        let p = |end: &str, n: usize| PathTrace {
+            points: vec![(0.0, 0.0); n + 1],
+            end: end.into(),
+            mean_latent_loss: 0.0104,
+        };
+        assert_eq!(
+            p("lost", 197).loss_and_end(),
+            "0.010 (lost after 197 ticks)"
+        );
+        assert_eq!(p("lap", 382).loss_and_end(), "0.010 (a lap in 382 ticks)");
+        assert_eq!(
+            p("ticks", 1500).loss_and_end(),
+            "0.010 (no lap in 1500 ticks)"
+        );
+    }
+}

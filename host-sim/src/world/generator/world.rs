@@ -1,0 +1,275 @@
+//! The attempts, and the world the generator hands back: the bytes of its files, the scenario in
+//! memory, the checks and measurements.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::Context;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use thiserror::Error;
+
+use super::check::{self, Contrast, Lap};
+use super::draft::Draft;
+use super::options::{Options, OptionsError, ValidOptions};
+use super::plan::{self, Ranges};
+use crate::world::scenario::Scenario;
+use crate::world::teacher::{self, Preset, TeacherSpec};
+
+/// An attempt that failed its checks, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refusal {
+    /// The attempt (the stream of the seed's generator).
+    pub attempt: u32,
+    /// Why it was refused.
+    pub why: Why,
+}
+
+/// Why an attempt was refused.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Why {
+    /// A waypoint is not in free space.
+    Waypoint {
+        /// Its index.
+        index: usize,
+        /// Where.
+        at: (f64, f64),
+    },
+    /// The car's footprint at the start touches the map.
+    Start,
+    /// An object is out of the detector's reach from every point of the path.
+    OutOfReach {
+        /// Its index in the scenario's objects.
+        object: usize,
+        /// What it is.
+        what: &'static str,
+        /// Its centre.
+        at: (f64, f64),
+    },
+    /// A teacher's own policy did not complete a lap without a reset.
+    NoLap {
+        /// The teacher preset.
+        teacher: &'static str,
+        /// How its drive ended: a reset reason or `ticks`.
+        end: String,
+        /// Where it ended.
+        at: (f64, f64),
+        /// After how many ticks.
+        ticks: u32,
+    },
+}
+
+impl Why {
+    /// A short label for tallies: `doors teacher: blocked`, `out of reach: an armchair`.
+    pub fn label(&self) -> String {
+        match self {
+            Why::Waypoint { .. } => "waypoint not free".into(),
+            Why::Start => "start not free".into(),
+            Why::OutOfReach { what, .. } => format!("out of reach: {what}"),
+            Why::NoLap { teacher, end, .. } => format!("{teacher} teacher: {end}"),
+        }
+    }
+}
+
+impl std::fmt::Display for Why {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Why::Waypoint { index, at } => {
+                write!(f, "waypoint {index} ({}, {}) is not free", at.0, at.1)
+            }
+            Why::Start => write!(f, "the car's footprint at the start touches the map"),
+            Why::OutOfReach { object, what, at } => write!(
+                f,
+                "object {object} ({what}, at ({}, {})) is out of the detector's reach from every point of the path",
+                at.0, at.1
+            ),
+            Why::NoLap {
+                teacher,
+                end,
+                at,
+                ticks,
+            } => write!(
+                f,
+                "the {teacher} teacher's own policy did not lap: {end} at ({:.2}, {:.2}) after {ticks} ticks",
+                at.0, at.1
+            ),
+        }
+    }
+}
+
+/// Why no world came out.
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum GenerateError {
+    /// The options were refused.
+    #[error("{0}")]
+    Options(#[from] OptionsError),
+    /// Every attempt failed its checks.
+    #[error("no world for seed {seed} passed its checks in {} attempts: {}", .refusals.len(), list(.refusals))]
+    NoWorld {
+        /// The seed.
+        seed: u64,
+        /// Every attempt's reason.
+        refusals: Vec<Refusal>,
+    },
+    /// The simulator failed while checking (a bug, not the world's fault).
+    #[error("seed {seed}, attempt {attempt}: {message}")]
+    Check {
+        /// The seed.
+        seed: u64,
+        /// The attempt.
+        attempt: u32,
+        /// What failed.
+        message: String,
+    },
+}
+
+fn list(r: &[Refusal]) -> String {
+    r.iter()
+        .map(|r| format!("attempt {}: {}", r.attempt, r.why))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// The world's numbers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary {
+    /// Inside the outer wall (m).
+    pub width: f64,
+    /// Inside the outer wall (m).
+    pub height: f64,
+    /// The path's length (m).
+    pub path_length: f64,
+    /// Hallway widths (m), south, east, north, west order.
+    pub hallways: Vec<f64>,
+    /// Open rooms on the ring.
+    pub open_rooms: usize,
+    /// Rooms in the block.
+    pub block_rooms: usize,
+    /// Doors.
+    pub doors: usize,
+    /// Staircases.
+    pub stairs: usize,
+    /// Chairs (armchairs included).
+    pub chairs: usize,
+}
+
+/// A generated world that passed its checks.
+#[derive(Clone, Debug)]
+pub struct World {
+    /// The options it was made with.
+    pub options: ValidOptions,
+    /// The attempt that passed.
+    pub attempt: u32,
+    /// The attempts before it, and why they failed.
+    pub refused: Vec<Refusal>,
+    /// `NAME.pgm`.
+    pub pgm: Vec<u8>,
+    /// `NAME.yaml`.
+    pub yaml: String,
+    /// `NAME.toml`.
+    pub toml: String,
+    /// The scenario, in memory (what loading the files gives, but for the map's unknown cells,
+    /// here occupied: the car and its sensor treat both alike).
+    pub scenario: Arc<Scenario>,
+    /// Every preset teacher's lap, in [`teacher::PRESETS`] order.
+    pub laps: Vec<Lap>,
+    /// Every preset teacher against its path follower, in the same order.
+    pub contrasts: Vec<Contrast>,
+    /// Its numbers.
+    pub summary: Summary,
+}
+
+impl World {
+    /// The files: name and bytes (`NAME.pgm`, `NAME.yaml`, `NAME.toml`).
+    pub fn files(&self) -> [(String, &[u8]); 3] {
+        let n = &self.options.name;
+        [
+            (format!("{n}.pgm"), &self.pgm[..]),
+            (format!("{n}.yaml"), self.yaml.as_bytes()),
+            (format!("{n}.toml"), self.toml.as_bytes()),
+        ]
+    }
+
+    /// Writes the files into `dir` (created if missing; files of the same name are replaced).
+    /// Returns the scenario file's path.
+    pub fn write(&self, dir: &Path) -> anyhow::Result<PathBuf> {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create", dir.display()))?;
+        for (name, bytes) in self.files() {
+            let p = dir.join(&name);
+            std::fs::write(&p, bytes).with_context(|| format!("{}: cannot write", p.display()))?;
+        }
+        Ok(dir.join(format!("{}.toml", self.options.name)))
+    }
+
+    /// The lap of the scenario's teacher.
+    pub fn lap(&self) -> &Lap {
+        let i = preset_index(self.options.teacher);
+        &self.laps[i]
+    }
+
+    /// The scenario's teacher against its path follower.
+    pub fn contrast(&self) -> &Contrast {
+        let i = preset_index(self.options.teacher);
+        &self.contrasts[i]
+    }
+}
+
+fn preset_index(p: &Preset) -> usize {
+    teacher::PRESETS
+        .iter()
+        .position(|q| q.name == p.name)
+        .unwrap_or(0)
+}
+
+/// Generates a world: draws plans until one passes its checks (see the module documentation).
+pub fn generate(options: &Options) -> Result<World, GenerateError> {
+    let options = options.check()?;
+    let mut refused = Vec::new();
+    for attempt in 0..options.attempts {
+        let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
+        rng.set_stream(u64::from(attempt));
+        let plan = plan::plan(
+            &mut rng,
+            Ranges {
+                hallway: options.hallway_mm,
+            },
+        );
+        let internal = |e: anyhow::Error| GenerateError::Check {
+            seed: options.seed,
+            attempt,
+            message: format!("{e:#}"),
+        };
+        let draft = Draft::new(&plan, &options, attempt).map_err(internal)?;
+        match draft.accept().map_err(internal)? {
+            Err(why) => refused.push(Refusal { attempt, why }),
+            Ok(laps) => {
+                let mut contrasts = Vec::new();
+                for p in &teacher::PRESETS {
+                    let c = check::contrast(&draft.scenario, p.name, TeacherSpec::from_preset(p))
+                        .map_err(internal)?;
+                    contrasts.push(c);
+                }
+                let summary = draft.summary(&plan);
+                return Ok(World {
+                    options,
+                    attempt,
+                    refused,
+                    pgm: draft.pgm,
+                    yaml: draft.yaml,
+                    toml: draft.toml,
+                    scenario: draft.scenario,
+                    laps,
+                    contrasts,
+                    summary,
+                });
+            }
+        }
+    }
+    Err(GenerateError::NoWorld {
+        seed: options.seed,
+        refusals: refused,
+    })
+}
