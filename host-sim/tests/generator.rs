@@ -172,7 +172,7 @@ fn worlds_0_to_99_load_lap_and_show_their_objects() {
         for (i, p) in PRESETS.iter().enumerate() {
             // Every teacher laps the loaded world, driven by the experiment loop.
             let lap = &w.laps[i];
-            assert!(lap.lapped(), "{name}: {}", lap.teacher);
+            assert_eq!(lap.trace.len() as u32, lap.ticks + 1, "{name}: {}", p.name);
             // (as many ticks as the generator's lap took, and 20 more)
             first_lap(&loaded, TeacherSpec::from_preset(p), lap.ticks + 20)
                 .unwrap_or_else(|e| panic!("seed {seed}, {}: {e}", p.name));

@@ -132,7 +132,7 @@ fn report(world: &World, long: bool) {
         for (lap, c) in world.laps.iter().zip(&world.contrasts) {
             println!(
                 "  {:<13} lap in {} ticks; its path follower ({}, {} ticks): another choice at {} ticks, over the threshold at {}",
-                lap.teacher, lap.ticks, c.end, c.ticks, c.differs, c.over_threshold
+                c.teacher, lap.ticks, c.end, c.ticks, c.differs, c.over_threshold
             );
         }
     }

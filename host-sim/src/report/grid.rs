@@ -8,7 +8,7 @@ use anyhow::{Context, Result, ensure};
 use firmware_core::{LearnerParams, PAPER_STEP};
 use rayon::prelude::*;
 
-use super::paths::{PathTrace, drive_lap};
+use super::paths::{PathTrace, learner_lap};
 use crate::teach::experiment::{self, MAX_STEPS, Mode, RunConfig, StartJitter};
 use crate::teach::record::RESET_CAUSES;
 use crate::world::registry;
@@ -308,7 +308,7 @@ pub fn run_job(
     let config = s.config(scenario.clone(), trial, o);
     let report = experiment::run(&config).with_context(|| format!("{} trial {trial}", s.key()))?;
     let path = if s.draw_path && trial == 0 {
-        Some(drive_lap(
+        Some(learner_lap(
             &scenario,
             &report.final_snapshot,
             config.teacher(),

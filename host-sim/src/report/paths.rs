@@ -8,9 +8,9 @@ use firmware_core::LearnerSnapshot;
 
 use super::grid::{HOUSEHOLDS, Options, PATH_TICKS, paper_learner};
 use crate::teach::experiment::{self, CarLink, InProcessLink};
+use crate::world::check;
 use crate::world::scenario::Scenario;
-use crate::world::sim::Episode;
-use crate::world::teacher::Teacher;
+use crate::world::teacher::{Teacher, TeacherSpec, scaled};
 
 /// A lap driven for a path figure.
 #[derive(Clone, Debug, PartialEq)]
@@ -37,53 +37,39 @@ impl PathTrace {
     }
 }
 
-/// Drives `snapshot`'s learner, frozen, from the scenario's start for at most `max_ticks`.
-pub fn drive_lap(
+/// Drives `snapshot`'s learner, frozen, from the scenario's start for at most `max_ticks`
+/// ([`check::drive_lap`]); `teacher`, without noise, judges every action.
+pub fn learner_lap(
     scenario: &Arc<Scenario>,
     snapshot: &LearnerSnapshot,
-    teacher: crate::world::teacher::TeacherSpec,
+    teacher: TeacherSpec,
     max_ticks: u32,
 ) -> Result<PathTrace> {
     let mut link = InProcessLink::new(snapshot.params)?;
     link.restore(snapshot)?;
     let mut judge = Teacher::new(
-        crate::world::teacher::TeacherSpec {
+        TeacherSpec {
             noise: 0.0,
             ..teacher
         },
         0,
     );
-    let mut episode = Episode::new(scenario.clone());
-    let start = episode.car().pose;
-    let mut points = vec![(start.x, start.y)];
     let mut loss = 0.0f64;
     let mut acted = 0u32;
-    let mut end = "ticks".to_string();
-    for tick in 0..max_ticks {
-        let obs = episode.observe();
-        let decision = link.act(tick, &obs)?;
+    let drive = check::drive_lap(scenario, max_ticks, |tick, obs| -> Result<_> {
+        let decision = link.act(tick, obs)?;
         let j = judge
-            .judge(&obs)
+            .judge(obs)
             .map_err(|e| anyhow::anyhow!("tick {tick}: observation refused: {e}"))?;
         if let Some(a) = decision.action {
             loss += j.latent_loss(a) as f64;
             acted += 1;
         }
-        let r = episode.drive(decision.action);
-        if let Some(reason) = r.reset {
-            end = if r.lap { "lap" } else { reason.name() }.to_string();
-            break;
-        }
-        let p = episode.car().pose;
-        points.push((p.x, p.y));
-        if r.lap {
-            end = "lap".into();
-            break;
-        }
-    }
+        Ok(decision.action)
+    })?;
     Ok(PathTrace {
-        points,
-        end,
+        points: drive.trace,
+        end: drive.end.name().to_string(),
         mean_latent_loss: if acted > 0 { loss / acted as f64 } else { 0.0 },
     })
 }
@@ -96,12 +82,12 @@ pub(crate) fn teacher_laps(
     let mut laps = BTreeMap::new();
     for h in HOUSEHOLDS {
         let s = &households[h];
-        let teacher = crate::world::teacher::TeacherSpec {
-            weights: crate::world::teacher::scaled(&s.teacher.weights, o.teacher_scale),
+        let teacher = TeacherSpec {
+            weights: scaled(&s.teacher.weights, o.teacher_scale),
             ..s.teacher
         };
         let snap = experiment::learner_with(paper_learner(), teacher.weights)?;
-        laps.insert(h, drive_lap(s, &snap, teacher, PATH_TICKS)?);
+        laps.insert(h, learner_lap(s, &snap, teacher, PATH_TICKS)?);
     }
     Ok(laps)
 }

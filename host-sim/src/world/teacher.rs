@@ -186,6 +186,23 @@ pub fn preset(name: &str) -> Option<&'static Preset> {
     PRESETS.iter().find(|p| p.name == name)
 }
 
+/// The weights of a teacher's **path follower**: its semantic classes (door, stairs, chair) and
+/// `right` set to 0, obstacles and path kept: the learner that "just focuses on following the
+/// line". The calibration ([`crate::teach::calibrate`]) and the generator's measurements
+/// ([`crate::world::generator::check::contrast`]) compare a teacher with it.
+pub fn path_follower(w: &Weights) -> Weights {
+    let mut f = *w;
+    for x in [
+        Feature::Door,
+        Feature::Stairs,
+        Feature::Chair,
+        Feature::Right,
+    ] {
+        f[x.index()] = 0.0;
+    }
+    f
+}
+
 /// Default correction threshold on the perceived latent loss.
 pub const DEFAULT_THRESHOLD: f32 = 1.0;
 

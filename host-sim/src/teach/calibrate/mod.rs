@@ -37,12 +37,12 @@
 use std::sync::Arc;
 
 use anyhow::{Result, bail};
-use firmware_core::{Feature, Weights, policy};
+use firmware_core::{Weights, policy};
 
+use crate::world::check::{self, LapEnd};
 use crate::world::registry;
 use crate::world::scenario::Scenario;
-use crate::world::sim::Episode;
-use crate::world::teacher::{Preset, Teacher, TeacherSpec};
+use crate::world::teacher::{Preset, Teacher, TeacherSpec, path_follower};
 
 /// The households calibrated: the paper's three.
 pub const HOUSEHOLDS: [&str; 3] = ["doors", "stairs-right", "stairs-chairs"];
@@ -239,20 +239,6 @@ pub struct HouseholdLap {
     pub initial: Vec<f64>,
 }
 
-/// The path follower's weights of a teacher: semantic classes and `right` set to 0.
-pub fn path_follower(w: &Weights) -> Weights {
-    let mut f = *w;
-    for x in [
-        Feature::Door,
-        Feature::Stairs,
-        Feature::Chair,
-        Feature::Right,
-    ] {
-        f[x.index()] = 0.0;
-    }
-    f
-}
-
 /// Drives `preset`'s noiseless teacher for a lap of `scenario` and measures along it.
 pub fn measure_lap(scenario: &Arc<Scenario>, preset: &'static Preset) -> Result<HouseholdLap> {
     // The teacher at scale 1 (its ratios): the choices do not depend on the scale, so neither
@@ -261,7 +247,6 @@ pub fn measure_lap(scenario: &Arc<Scenario>, preset: &'static Preset) -> Result<
     let mut teacher = Teacher::new(spec, 0);
     let follower_w = path_follower(&preset.ratios);
     let r = &preset.ratios;
-    let mut episode = Episode::new(scenario.clone());
     let mut out = HouseholdLap {
         household: preset.name,
         ratios: preset.ratios,
@@ -279,9 +264,9 @@ pub fn measure_lap(scenario: &Arc<Scenario>, preset: &'static Preset) -> Result<
             .sum::<f64>()
             .max(0.0)
     };
-    for tick in 0..LAP_TICKS {
+    let drive = check::drive_lap(scenario, LAP_TICKS, |tick, obs| -> Result<_> {
         let j = teacher
-            .judge(&episode.observe())
+            .judge(obs)
             .map_err(|e| anyhow::anyhow!("{}: tick {tick}: {e}", preset.name))?;
         let Some(best) = j.best else {
             bail!(
@@ -300,20 +285,19 @@ pub fn measure_lap(scenario: &Arc<Scenario>, preset: &'static Preset) -> Result<
         }
         let init = policy::select(&[0.0; 6], &j.table, j.allowed).unwrap_or(best);
         out.initial.push(loss(&j.table, best, init));
-        let step = episode.drive(Some(best));
-        out.ticks = tick + 1;
-        if step.lap {
-            return Ok(out);
-        }
-        if let Some(reason) = step.reset {
-            bail!(
-                "{}: the teacher's lap was cut short at tick {tick} ({})",
-                preset.name,
-                reason.name()
-            );
-        }
+        Ok(Some(best))
+    })?;
+    out.ticks = drive.ticks;
+    match drive.end {
+        LapEnd::Lap => Ok(out),
+        LapEnd::Reset(reason) => bail!(
+            "{}: the teacher's lap was cut short at tick {} ({})",
+            preset.name,
+            drive.ticks - 1,
+            reason.name()
+        ),
+        LapEnd::Ticks => bail!("{}: no lap in {LAP_TICKS} ticks", preset.name),
     }
-    bail!("{}: no lap in {LAP_TICKS} ticks", preset.name)
 }
 
 /// One target, its interval of scales, and the numbers it comes from.

@@ -7,12 +7,13 @@ use std::sync::Arc;
 
 use firmware_core::observation::SemanticClass;
 
-use super::check::{self, Lap};
+use super::check;
 use super::geometry::metres;
 use super::options::ValidOptions;
 use super::plan::{self, ObjectShape, Paint, Plan};
 use super::world::{Summary, Why};
 use crate::world::car::{CarParams, Pose};
+use crate::world::check::{LapFailure, TeacherLap, lap_of};
 use crate::world::households::{Canvas, yaml};
 use crate::world::map::{Cell, MapMeta, OccupancyGrid};
 use crate::world::path::RefPath;
@@ -98,39 +99,41 @@ impl Draft {
         })
     }
 
-    /// The checks: `Ok(Err(why))` when the world fails one, `Err` when the simulator fails.
-    pub(crate) fn accept(&self) -> anyhow::Result<Result<Vec<Lap>, Why>> {
+    /// The checks: `Err(why)` when the world fails one; every preset teacher's lap, in
+    /// [`teacher::PRESETS`] order, when it passes them all.
+    pub(crate) fn accept(&self) -> Result<Vec<TeacherLap>, Why> {
         let s = &self.scenario;
         for (index, &at) in s.path.points().iter().enumerate() {
             if s.map.is_blocked(at.0, at.1) {
-                return Ok(Err(Why::Waypoint { index, at }));
+                return Err(Why::Waypoint { index, at });
             }
         }
         if CarParams::MUSHR.footprint_hits(&s.map, s.start) {
-            return Ok(Err(Why::Start));
+            return Err(Why::Start);
         }
         if let Some(&object) = check::unreachable_objects(s).first() {
             let o = &s.objects[object];
-            return Ok(Err(Why::OutOfReach {
+            return Err(Why::OutOfReach {
                 object,
                 what: self.objects[object],
                 at: (o.x, o.y),
-            }));
+            });
         }
-        let mut laps = Vec::new();
-        for p in &teacher::PRESETS {
-            let lap = check::teacher_lap(s, p.name, TeacherSpec::from_preset(p))?;
-            if !lap.lapped() {
-                return Ok(Err(Why::NoLap {
+        // The scenario check of `load_scenario`, with each preset teacher in turn.
+        teacher::PRESETS
+            .iter()
+            .map(|p| {
+                lap_of(s, TeacherSpec::from_preset(p)).map_err(|u| Why::NoLap {
                     teacher: p.name,
-                    end: lap.end.clone(),
-                    at: lap.last(),
-                    ticks: lap.ticks,
-                }));
-            }
-            laps.push(lap);
-        }
-        Ok(Ok(laps))
+                    end: u.failure.name(),
+                    at: (u.x, u.y),
+                    ticks: match u.failure {
+                        LapFailure::Reset(_) => u.tick + 1,
+                        LapFailure::TooSlow { ticks, .. } => ticks,
+                    },
+                })
+            })
+            .collect()
     }
 
     pub(crate) fn summary(&self, plan: &Plan) -> Summary {

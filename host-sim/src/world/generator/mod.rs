@@ -6,7 +6,7 @@
 //! use host_sim::world::generator::{self, Options};
 //! let world = generator::generate(&Options::new(7)).unwrap();
 //! world.write(std::path::Path::new("out/worlds")).unwrap(); // gen-7.toml, .yaml, .pgm
-//! assert!(world.laps.iter().all(|l| l.lapped()));
+//! assert_eq!(world.laps.len(), 3); // every preset teacher laps it
 //! ```
 //!
 //! # The rules
@@ -60,9 +60,10 @@
 //! # Checked before a world is accepted
 //!
 //! A world is written only if, in memory: its waypoints and start are free (as
-//! [`Scenario::load`](crate::world::scenario::Scenario::load) requires); **every** teacher preset's own
-//! policy drives one lap from the start without a reset ([`check::teacher_lap`]), so the same
-//! world serves all three tasks; and every semantic object is within the detector's 5 m of some
+//! [`Scenario::load`](crate::world::scenario::Scenario::load) requires); it passes the scenario
+//! check that loading any scenario runs ([`crate::world::check`]) with **every** teacher preset
+//! (its own policy drives one lap from the start without a reset, within the check's tick limit),
+//! so the same world serves all three tasks; and every semantic object is within the detector's 5 m of some
 //! point of the path, in line of sight ([`check::unreachable_objects`]). A world that fails is
 //! drawn again from the next stream of the seed's generator: attempt `k` draws from stream `k`
 //! of the ChaCha8 generator seeded with the seed, so the retries are as deterministic as the

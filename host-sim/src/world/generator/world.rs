@@ -9,10 +9,11 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use thiserror::Error;
 
-use super::check::{self, Contrast, Lap};
+use super::check::{self, Contrast};
 use super::draft::Draft;
 use super::options::{Options, OptionsError, ValidOptions};
 use super::plan::{self, Ranges};
+use crate::world::check::TeacherLap;
 use crate::world::scenario::Scenario;
 use crate::world::teacher::{self, Preset, TeacherSpec};
 
@@ -52,7 +53,7 @@ pub enum Why {
         /// The teacher preset.
         teacher: &'static str,
         /// How its drive ended: a reset reason or `ticks`.
-        end: String,
+        end: &'static str,
         /// Where it ended.
         at: (f64, f64),
         /// After how many ticks.
@@ -173,8 +174,8 @@ pub struct World {
     /// The scenario, in memory (what loading the files gives, but for the map's unknown cells,
     /// here occupied: the car and its sensor treat both alike).
     pub scenario: Arc<Scenario>,
-    /// Every preset teacher's lap, in [`teacher::PRESETS`] order.
-    pub laps: Vec<Lap>,
+    /// Every preset teacher's lap (the scenario check's), in [`teacher::PRESETS`] order.
+    pub laps: Vec<TeacherLap>,
     /// Every preset teacher against its path follower, in the same order.
     pub contrasts: Vec<Contrast>,
     /// Its numbers.
@@ -205,7 +206,7 @@ impl World {
     }
 
     /// The lap of the scenario's teacher.
-    pub fn lap(&self) -> &Lap {
+    pub fn lap(&self) -> &TeacherLap {
         let i = preset_index(self.options.teacher);
         &self.laps[i]
     }
@@ -243,7 +244,7 @@ pub fn generate(options: &Options) -> Result<World, GenerateError> {
             message: format!("{e:#}"),
         };
         let draft = Draft::new(&plan, &options, attempt).map_err(internal)?;
-        match draft.accept().map_err(internal)? {
+        match draft.accept() {
             Err(why) => refused.push(Refusal { attempt, why }),
             Ok(laps) => {
                 let mut contrasts = Vec::new();
