@@ -1,21 +1,25 @@
 //! Every file of a finished grid: the CSVs, the figures and the report.
 
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
+use std::sync::Arc;
 
 use anyhow::{Context, Result};
 
 use super::aggregate::{Aggregate, aggregate_all};
 use super::figure::{self, PALETTE, Panel, Series};
 use super::grid::{
-    Group, HOUSEHOLDS, NOISE_CURVES, Options, Setting, TrialResult, load_households,
+    Group, HOUSEHOLDS, NOISE_CURVES, Options, PATH_TICKS, Setting, TrialResult, load_households,
+    paper_learner,
 };
 use super::panels::{corrections_panel, loss_panel, map_picture, progress_panel};
-use super::paths::{PathTrace, teacher_laps};
+use super::paths::{PathTrace, learner_lap};
 use super::sections::report;
 use super::shards::write_file;
-use crate::teach::experiment::Mode;
+use crate::teach::experiment::{self, Mode};
 use crate::world::scenario::Scenario;
+use crate::world::teacher::{TeacherSpec, scaled};
 
 fn per_step_csv(head: &str, rows: &[(String, &Aggregate)]) -> String {
     let mut out = format!(
@@ -112,6 +116,24 @@ fn summary_csv(aggs: &[Aggregate]) -> String {
         );
     }
     out
+}
+
+/// The teacher's own lap of every household (purple in the path figures).
+fn teacher_laps(
+    o: &Options,
+    households: &BTreeMap<&'static str, Arc<Scenario>>,
+) -> Result<BTreeMap<&'static str, PathTrace>> {
+    let mut laps = BTreeMap::new();
+    for h in HOUSEHOLDS {
+        let s = &households[h];
+        let teacher = TeacherSpec {
+            weights: scaled(&s.teacher.weights, o.teacher_scale),
+            ..s.teacher
+        };
+        let snap = experiment::learner_with(paper_learner(), teacher.weights)?;
+        laps.insert(h, learner_lap(s, &snap, teacher, PATH_TICKS)?);
+    }
+    Ok(laps)
 }
 
 /// Writes every output of a finished grid into `out`; returns the report's text.

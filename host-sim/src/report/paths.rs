@@ -1,16 +1,15 @@
-//! The laps drawn on the maps: a frozen learner (or the teacher) driven from the start.
+//! The laps drawn on the maps: a frozen learner (the teacher's weights, or a trained learner's)
+//! driven from the start.
 
-use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use anyhow::Result;
 use firmware_core::LearnerSnapshot;
 
-use super::grid::{HOUSEHOLDS, Options, PATH_TICKS, paper_learner};
-use crate::teach::experiment::{self, CarLink, InProcessLink};
+use crate::teach::experiment::{CarLink, InProcessLink};
 use crate::world::check;
 use crate::world::scenario::Scenario;
-use crate::world::teacher::{Teacher, TeacherSpec, scaled};
+use crate::world::teacher::{Teacher, TeacherSpec};
 
 /// A lap driven for a path figure.
 #[derive(Clone, Debug, PartialEq)]
@@ -72,24 +71,6 @@ pub fn learner_lap(
         end: drive.end.name().to_string(),
         mean_latent_loss: if acted > 0 { loss / acted as f64 } else { 0.0 },
     })
-}
-
-/// The teacher's own lap of every household (purple in the path figures).
-pub(crate) fn teacher_laps(
-    o: &Options,
-    households: &BTreeMap<&'static str, Arc<Scenario>>,
-) -> Result<BTreeMap<&'static str, PathTrace>> {
-    let mut laps = BTreeMap::new();
-    for h in HOUSEHOLDS {
-        let s = &households[h];
-        let teacher = TeacherSpec {
-            weights: scaled(&s.teacher.weights, o.teacher_scale),
-            ..s.teacher
-        };
-        let snap = experiment::learner_with(paper_learner(), teacher.weights)?;
-        laps.insert(h, learner_lap(s, &snap, teacher, PATH_TICKS)?);
-    }
-    Ok(laps)
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ use firmware_core::{
     Round, Weights,
 };
 
-use super::experiment::RunConfig;
+use super::config::RunConfig;
 use crate::world::car::Pose;
 use crate::world::sim::Episode;
 use crate::world::teacher::{Teacher, TeacherSpec};

@@ -1,7 +1,8 @@
 //! A learner taught in a world: runs, links, baselines, and the choices they rest on.
 //!
-//! * [`experiment`]: the run loop behind the [`experiment::CarLink`] trait, its configuration
-//!   and start jitter, parallel runs.
+//! * [`config`]: a run's configuration: the mode, the learner, the teacher's overrides, the
+//!   start jitter.
+//! * [`experiment`]: the run loop behind the [`experiment::CarLink`] trait, parallel runs.
 //! * [`bc`]: behaviour cloning, the paper's baseline.
 //! * [`record`]: what a run records: per-step records, CSV, summary, task success.
 //! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
@@ -14,6 +15,7 @@
 
 pub mod bc;
 pub mod calibrate;
+pub mod config;
 pub mod experiment;
 pub mod learners;
 pub mod record;

@@ -6,7 +6,7 @@ use std::io::Write;
 use firmware_core::{ActionIndex, LearnerParams, LearnerSnapshot};
 
 use super::bc::BcFit;
-use super::experiment::Mode;
+use super::config::Mode;
 use crate::world::sim::ResetReason;
 use crate::world::teacher::TeacherSpec;
 

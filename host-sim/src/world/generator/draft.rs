@@ -11,7 +11,6 @@ use super::check;
 use super::geometry::metres;
 use super::options::ValidOptions;
 use super::plan::{self, ObjectShape, Paint, Plan};
-use super::world::{Summary, Why};
 use crate::world::car::{CarParams, Pose};
 use crate::world::check::{LapFailure, TeacherLap, lap_of};
 use crate::world::households::{Canvas, yaml};
@@ -19,6 +18,102 @@ use crate::world::map::{Cell, MapMeta, OccupancyGrid};
 use crate::world::path::RefPath;
 use crate::world::scenario::{Scenario, Shape, WorldObject};
 use crate::world::teacher::{self, TeacherSpec};
+
+/// Why an attempt was refused.
+#[derive(Clone, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum Why {
+    /// A waypoint is not in free space.
+    Waypoint {
+        /// Its index.
+        index: usize,
+        /// Where.
+        at: (f64, f64),
+    },
+    /// The car's footprint at the start touches the map.
+    Start,
+    /// An object is out of the detector's reach from every point of the path.
+    OutOfReach {
+        /// Its index in the scenario's objects.
+        object: usize,
+        /// What it is.
+        what: &'static str,
+        /// Its centre.
+        at: (f64, f64),
+    },
+    /// A teacher's own policy did not complete a lap without a reset.
+    NoLap {
+        /// The teacher preset.
+        teacher: &'static str,
+        /// How its drive ended: a reset reason or `ticks`.
+        end: &'static str,
+        /// Where it ended.
+        at: (f64, f64),
+        /// After how many ticks.
+        ticks: u32,
+    },
+}
+
+impl Why {
+    /// A short label for tallies: `doors teacher: blocked`, `out of reach: an armchair`.
+    pub fn label(&self) -> String {
+        match self {
+            Why::Waypoint { .. } => "waypoint not free".into(),
+            Why::Start => "start not free".into(),
+            Why::OutOfReach { what, .. } => format!("out of reach: {what}"),
+            Why::NoLap { teacher, end, .. } => format!("{teacher} teacher: {end}"),
+        }
+    }
+}
+
+impl std::fmt::Display for Why {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Why::Waypoint { index, at } => {
+                write!(f, "waypoint {index} ({}, {}) is not free", at.0, at.1)
+            }
+            Why::Start => write!(f, "the car's footprint at the start touches the map"),
+            Why::OutOfReach { object, what, at } => write!(
+                f,
+                "object {object} ({what}, at ({}, {})) is out of the detector's reach from every point of the path",
+                at.0, at.1
+            ),
+            Why::NoLap {
+                teacher,
+                end,
+                at,
+                ticks,
+            } => write!(
+                f,
+                "the {teacher} teacher's own policy did not lap: {end} at ({:.2}, {:.2}) after {ticks} ticks",
+                at.0, at.1
+            ),
+        }
+    }
+}
+
+/// The world's numbers.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Summary {
+    /// Inside the outer wall (m).
+    pub width: f64,
+    /// Inside the outer wall (m).
+    pub height: f64,
+    /// The path's length (m).
+    pub path_length: f64,
+    /// Hallway widths (m), south, east, north, west order.
+    pub hallways: Vec<f64>,
+    /// Open rooms on the ring.
+    pub open_rooms: usize,
+    /// Rooms in the block.
+    pub block_rooms: usize,
+    /// Doors.
+    pub doors: usize,
+    /// Staircases.
+    pub stairs: usize,
+    /// Chairs (armchairs included).
+    pub chairs: usize,
+}
 
 /// One attempt's files and scenario.
 pub(crate) struct Draft {

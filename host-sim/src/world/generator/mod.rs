@@ -99,7 +99,8 @@ mod options;
 mod plan;
 mod world;
 
+pub use draft::{Summary, Why};
 pub use options::{
     DEFAULT_ATTEMPTS, HALLWAY_LIMITS, MAX_ATTEMPTS, Options, OptionsError, ValidOptions,
 };
-pub use world::{GenerateError, Refusal, Summary, Why, World, generate};
+pub use world::{GenerateError, Refusal, World, generate};

@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use thiserror::Error;
 
 use super::check::{self, Contrast};
-use super::draft::Draft;
+use super::draft::{Draft, Summary, Why};
 use super::options::{Options, OptionsError, ValidOptions};
 use super::plan::{self, Ranges};
 use crate::world::check::TeacherLap;
@@ -24,79 +24,6 @@ pub struct Refusal {
     pub attempt: u32,
     /// Why it was refused.
     pub why: Why,
-}
-
-/// Why an attempt was refused.
-#[derive(Clone, Debug, PartialEq)]
-#[non_exhaustive]
-pub enum Why {
-    /// A waypoint is not in free space.
-    Waypoint {
-        /// Its index.
-        index: usize,
-        /// Where.
-        at: (f64, f64),
-    },
-    /// The car's footprint at the start touches the map.
-    Start,
-    /// An object is out of the detector's reach from every point of the path.
-    OutOfReach {
-        /// Its index in the scenario's objects.
-        object: usize,
-        /// What it is.
-        what: &'static str,
-        /// Its centre.
-        at: (f64, f64),
-    },
-    /// A teacher's own policy did not complete a lap without a reset.
-    NoLap {
-        /// The teacher preset.
-        teacher: &'static str,
-        /// How its drive ended: a reset reason or `ticks`.
-        end: &'static str,
-        /// Where it ended.
-        at: (f64, f64),
-        /// After how many ticks.
-        ticks: u32,
-    },
-}
-
-impl Why {
-    /// A short label for tallies: `doors teacher: blocked`, `out of reach: an armchair`.
-    pub fn label(&self) -> String {
-        match self {
-            Why::Waypoint { .. } => "waypoint not free".into(),
-            Why::Start => "start not free".into(),
-            Why::OutOfReach { what, .. } => format!("out of reach: {what}"),
-            Why::NoLap { teacher, end, .. } => format!("{teacher} teacher: {end}"),
-        }
-    }
-}
-
-impl std::fmt::Display for Why {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Why::Waypoint { index, at } => {
-                write!(f, "waypoint {index} ({}, {}) is not free", at.0, at.1)
-            }
-            Why::Start => write!(f, "the car's footprint at the start touches the map"),
-            Why::OutOfReach { object, what, at } => write!(
-                f,
-                "object {object} ({what}, at ({}, {})) is out of the detector's reach from every point of the path",
-                at.0, at.1
-            ),
-            Why::NoLap {
-                teacher,
-                end,
-                at,
-                ticks,
-            } => write!(
-                f,
-                "the {teacher} teacher's own policy did not lap: {end} at ({:.2}, {:.2}) after {ticks} ticks",
-                at.0, at.1
-            ),
-        }
-    }
 }
 
 /// Why no world came out.
@@ -131,29 +58,6 @@ fn list(r: &[Refusal]) -> String {
         .map(|r| format!("attempt {}: {}", r.attempt, r.why))
         .collect::<Vec<_>>()
         .join("; ")
-}
-
-/// The world's numbers.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Summary {
-    /// Inside the outer wall (m).
-    pub width: f64,
-    /// Inside the outer wall (m).
-    pub height: f64,
-    /// The path's length (m).
-    pub path_length: f64,
-    /// Hallway widths (m), south, east, north, west order.
-    pub hallways: Vec<f64>,
-    /// Open rooms on the ring.
-    pub open_rooms: usize,
-    /// Rooms in the block.
-    pub block_rooms: usize,
-    /// Doors.
-    pub doors: usize,
-    /// Staircases.
-    pub stairs: usize,
-    /// Chairs (armchairs included).
-    pub chairs: usize,
 }
 
 /// A generated world that passed its checks.
