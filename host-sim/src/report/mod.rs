@@ -74,6 +74,7 @@
 pub mod aggregate;
 pub mod claims;
 pub mod figure;
+pub mod files;
 pub mod grid;
 pub mod outputs;
 pub mod panels;

@@ -262,28 +262,28 @@ impl Raster {
 
 /// Reads the `x`, `y` columns of a `steps.csv` written by `host-sim run`.
 pub fn read_trace(csv: &Path) -> Result<Vec<(f64, f64)>> {
-    let text = std::fs::read_to_string(csv).map_err(|e| anyhow!("{}: {e}", csv.display()))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines
-        .next()
-        .ok_or_else(|| anyhow!("{}: empty", csv.display()))?
-        .split(',')
-        .collect();
+    let mut r = csv::Reader::from_path(csv).map_err(|e| anyhow!("{}: {e}", csv.display()))?;
+    let header = r
+        .headers()
+        .map_err(|e| anyhow!("{}: {e}", csv.display()))?
+        .clone();
     let col = |name: &str| {
         header
             .iter()
-            .position(|h| *h == name)
+            .position(|h| h == name)
             .ok_or_else(|| anyhow!("{}: no column {name:?}", csv.display()))
     };
     let (cx, cy) = (col("x")?, col("y")?);
     let mut out = Vec::new();
-    for (i, line) in lines.enumerate() {
-        let f: Vec<&str> = line.split(',').collect();
+    for (i, record) in r.records().enumerate() {
+        let bad = || anyhow!("{}: line {}: bad number", csv.display(), i + 2);
+        let record = record.map_err(|_| bad())?;
         let parse = |c: usize| -> Result<f64> {
-            f.get(c)
+            record
+                .get(c)
                 .and_then(|v| v.parse::<f64>().ok())
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| anyhow!("{}: line {}: bad number", csv.display(), i + 2))
+                .ok_or_else(bad)
         };
         out.push((parse(cx)?, parse(cy)?));
     }
