@@ -30,7 +30,7 @@ pub(crate) fn list() {
 
 pub(crate) fn draw(scenario: &str, run: Option<&Path>, out: &Path) -> Result<()> {
     let s = load_scenario(scenario)?;
-    let mut raster = host_sim::report::plot::Raster::of_scenario(&s);
+    let mut raster = host_sim::report::plot::MapDrawing::of_scenario(&s);
     if let Some(csv) = run {
         raster.trace(&host_sim::report::plot::read_trace(csv)?);
     }

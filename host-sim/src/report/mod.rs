@@ -66,7 +66,8 @@
 //! * [`aggregate`]: one setting across its trials.
 //! * [`claims`]: the paper's claims, one pure function each.
 //! * [`paths`]: the laps drawn on the maps.
-//! * [`figure`], [`plot`], [`panels`]: the charts and the drawings of maps.
+//! * [`raster`]: the one raster and PNG encoder of every picture; [`figure`] (charts, sheets of
+//!   pictures), [`plot`] (the lattice, maps) and [`panels`] (the report's panels) draw on it.
 //! * [`outputs`]: every file of a finished grid; [`sections`]: the report's text.
 //! * [`sweep`]: the claims at other scales of the teachers.
 //! * [`registry`]: the paper's experiments by name (`host-sim list`).
@@ -80,6 +81,7 @@ pub mod outputs;
 pub mod panels;
 pub mod paths;
 pub mod plot;
+pub mod raster;
 pub mod registry;
 pub mod sections;
 pub mod shards;

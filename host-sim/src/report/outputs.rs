@@ -15,6 +15,7 @@ use super::grid::{
 };
 use super::panels::{corrections_panel, loss_panel, map_picture, progress_panel};
 use super::paths::{PathTrace, learner_lap};
+use super::plot::MapDrawing;
 use super::sections::report;
 use crate::teach::experiment::{self, Mode};
 use crate::world::scenario::Scenario;
@@ -362,8 +363,8 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
 
     // Paths, every map at one scale.
     let maps: Vec<&Scenario> = HOUSEHOLDS.iter().map(|h| &*households[h]).collect();
-    let scale = crate::report::plot::Raster::common_scale(&maps, 720);
-    let cm = 100.0 * crate::report::plot::Raster::metres_per_pixel(maps[0], scale);
+    let scale = MapDrawing::common_scale(&maps, 720);
+    let cm = 100.0 * MapDrawing::metres_per_pixel(maps[0], scale);
     let mut paths_csv: Vec<[String; 7]> = Vec::new();
     let mut add_path = |fig: &str, h: &str, who: &str, key: &str, p: &PathTrace| {
         for (i, (x, y)) in p.points.iter().enumerate() {

@@ -3,6 +3,7 @@
 use super::aggregate::Aggregate;
 use super::figure::{PALETTE, Panel, Picture, Series};
 use super::paths::PathTrace;
+use super::plot::MapDrawing;
 use super::statistics::{sampled, smoothed, smoothing_window};
 use crate::world::scenario::Scenario;
 
@@ -88,16 +89,13 @@ pub(crate) fn map_picture(
     teacher: &PathTrace,
     learner: Option<&PathTrace>,
 ) -> Picture {
-    let mut r = crate::report::plot::Raster::of_scenario_scaled(scenario, scale);
+    let mut r = MapDrawing::of_scenario_scaled(scenario, scale);
     r.polyline(&teacher.points, TEACHER_COLOUR);
     if let Some(l) = learner {
         r.polyline(&l.points, LEARNER_COLOUR);
     }
-    let (width, height) = r.size();
     Picture {
         caption,
-        width,
-        height,
-        rgb: r.rgb().to_vec(),
+        image: r.into_raster(),
     }
 }

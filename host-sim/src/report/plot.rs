@@ -1,5 +1,5 @@
 //! Drawings: the 64-trajectory lattice as an SVG (`host-sim lattice`), and a scenario's map with
-//! its path, objects and a run's poses as a PNG (`host-sim draw`, [`Raster`]).
+//! its path, objects and a run's poses on a [`Raster`] (`host-sim draw`, [`MapDrawing`]).
 //!
 //! # The lattice drawing
 //!
@@ -13,6 +13,8 @@ use anyhow::{Result, anyhow};
 use firmware_core::ActionIndex;
 use firmware_core::lattice::{Family, trajectory};
 use plotters::prelude::*;
+
+use super::raster::Raster;
 
 /// Draws the lattice into the SVG file `out`.
 pub fn lattice_svg(out: &Path) -> Result<()> {
@@ -56,23 +58,21 @@ pub fn lattice_svg(out: &Path) -> Result<()> {
     Ok(())
 }
 
-/// An RGB raster of a scenario's map with its path, objects and start, and optionally a driven
-/// trajectory (`host-sim draw`): free cells white, occupied black, unknown grey; the path blue,
-/// doors brown, stairs red, chairs green, the driven poses orange, the start magenta.
+/// A scenario's map drawn on a [`Raster`] with its path, objects and start, and optionally a
+/// driven trajectory (`host-sim draw`): free cells white, occupied black, unknown grey; the path
+/// blue, doors brown, stairs red, chairs green, the driven poses orange, the start magenta.
 #[derive(Clone, Debug)]
-pub struct Raster {
-    width: usize,
-    height: usize,
+pub struct MapDrawing {
+    raster: Raster,
     /// Pixels per map cell.
     scale: usize,
-    rgb: Vec<u8>,
     grid: std::sync::Arc<crate::world::map::OccupancyGrid>,
 }
 
 const PATH_BLUE: [u8; 3] = [30, 100, 230];
 const DRIVEN: [u8; 3] = [255, 140, 0];
 
-impl Raster {
+impl MapDrawing {
     /// The map of `scenario` with its path, objects and start drawn, at most about 1000 pixels
     /// wide.
     pub fn of_scenario(scenario: &crate::world::scenario::Scenario) -> Self {
@@ -111,10 +111,8 @@ impl Raster {
         let scale = scale.clamp(1, 8);
         let (width, height) = (grid.width() * scale, grid.height() * scale);
         let mut r = Self {
-            width,
-            height,
+            raster: Raster::new(width, height, [0, 0, 0]),
             scale,
-            rgb: vec![0; width * height * 3],
             grid,
         };
         for row in 0..r.grid.height() {
@@ -128,7 +126,7 @@ impl Raster {
                     for dx in 0..scale {
                         let px = col * scale + dx;
                         let py = (r.grid.height() - 1 - row) * scale + dy;
-                        r.put(px as i64, py as i64, c);
+                        r.raster.put(px as i64, py as i64, c);
                     }
                 }
             }
@@ -157,15 +155,12 @@ impl Raster {
         let o = self.grid.origin();
         let res = self.grid.resolution() / self.scale as f64;
         let px = ((x - o[0]) / res).floor() as i64;
-        let py = self.height as i64 - 1 - ((y - o[1]) / res).floor() as i64;
+        let py = self.raster.size().1 as i64 - 1 - ((y - o[1]) / res).floor() as i64;
         (px, py)
     }
 
     fn put(&mut self, x: i64, y: i64, c: [u8; 3]) {
-        if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
-            let i = (y as usize * self.width + x as usize) * 3;
-            self.rgb[i..i + 3].copy_from_slice(&c);
-        }
+        self.raster.put(x, y, c);
     }
 
     fn line(&mut self, a: (f64, f64), b: (f64, f64), c: [u8; 3]) {
@@ -221,14 +216,14 @@ impl Raster {
         }
     }
 
-    /// Width and height in pixels.
-    pub fn size(&self) -> (usize, usize) {
-        (self.width, self.height)
+    /// The drawing.
+    pub fn raster(&self) -> &Raster {
+        &self.raster
     }
 
-    /// The pixels, RGB, row-major from the top.
-    pub fn rgb(&self) -> &[u8] {
-        &self.rgb
+    /// The drawing, handed over.
+    pub fn into_raster(self) -> Raster {
+        self.raster
     }
 
     /// Marks driven positions (world frame).
@@ -241,22 +236,9 @@ impl Raster {
         }
     }
 
-    /// Writes the raster as a PNG file.
+    /// Writes the drawing as a PNG file.
     pub fn write_png(&self, out: &Path) -> Result<()> {
-        let file = std::fs::File::create(out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
-        let mut enc = png::Encoder::new(
-            std::io::BufWriter::new(file),
-            self.width as u32,
-            self.height as u32,
-        );
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut w = enc
-            .write_header()
-            .map_err(|e| anyhow!("{}: {e}", out.display()))?;
-        w.write_image_data(&self.rgb)
-            .map_err(|e| anyhow!("{}: {e}", out.display()))?;
-        Ok(())
+        self.raster.write_png(out)
     }
 }
 
