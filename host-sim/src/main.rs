@@ -9,14 +9,13 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
-use firmware_core::{LearnerKind, LearnerParams};
 use host_sim::teach::experiment::{self, InProcessLink, Mode, RunConfig};
 use host_sim::world::registry;
 use host_sim::world::teacher::StatementSet;
 
 mod cli;
 
-use cli::{parse_kind, prepare_out, progress_bar};
+use cli::{prepare_out, progress_bar};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -155,7 +154,7 @@ struct RunArgs {
     /// vs a random one), semantic (statements such as "avoid doors"), bc (behaviour cloning on
     /// the teacher's demonstration of the run's first 50 ticks, then frozen), teacher (the
     /// teacher's own policy drives, frozen).
-    #[arg(long, default_value = "action", value_parser = parse_mode)]
+    #[arg(long, default_value = "action")]
     feedback: Mode,
     /// Number of control ticks (0.1 s each).
     #[arg(long, default_value_t = 5_000)]
@@ -171,17 +170,12 @@ struct RunArgs {
     /// (default: the scenario's, 0 unless it says otherwise).
     #[arg(long, allow_negative_numbers = true)]
     noise: Option<f32>,
-    /// Online learner: ogd, ogd-decaying, averaged-ogd, adagrad or coactive. Default: the one
-    /// docs/learners.md chose for the kind of feedback (`host-sim learners`).
-    #[arg(long, value_parser = parse_kind)]
-    learner: Option<LearnerKind>,
-    /// Step size (default: the learner's own: 0.01 for the OGD family, 0.1 AdaGrad, 1 coactive).
-    #[arg(long, allow_negative_numbers = true)]
-    step: Option<f32>,
+    #[command(flatten)]
+    learner: cli::LearnerArgs,
     /// What the semantic teacher says: paper (doors, stairs, chairs and the path by cross-track
     /// error, the paper's teacher; the default) or rich (every feature the teacher weighs, also
     /// obstacles and keep right).
-    #[arg(long, default_value = "paper", value_parser = parse_statements)]
+    #[arg(long, default_value = "paper")]
     statements: StatementSet,
     /// Probability that a correction answers at random (a random action, statements towards a
     /// random action, or a coin's preference), drawn from the run's seed. Default 0.
@@ -202,21 +196,13 @@ struct RunArgs {
     /// reorder=P,delay=P,max-delay-ms=N,seed=N).
     #[arg(long, requires = "link")]
     faults: Option<String>,
-    /// With --link: the frames the host sends, classic or fd.
-    #[arg(long, requires = "link", default_value = "fd", value_parser = parse_frame_mode)]
-    frame_mode: protocol::isotp::FrameMode,
+    /// With --link: the frames the host sends.
+    #[arg(long, requires = "link", default_value = "fd")]
+    frame_mode: cli::Frames,
     /// With --link: wait this long for each answer before sending the request again (ms). The
     /// default suits loopback and CAN; a slow serial line needs more.
     #[arg(long, requires = "link", default_value_t = 20)]
     try_timeout_ms: u64,
-}
-
-fn parse_frame_mode(s: &str) -> Result<protocol::isotp::FrameMode, String> {
-    match s {
-        "classic" => Ok(protocol::isotp::FrameMode::Classic),
-        "fd" => Ok(protocol::isotp::FrameMode::Fd),
-        _ => Err(format!("unknown frame mode '{s}', expected classic or fd")),
-    }
 }
 
 /// The learner's link for `run`: in process, or a `RemoteCar` over `--link`.
@@ -257,7 +243,7 @@ fn car_link(args: &RunArgs, config: &RunConfig) -> Result<Box<dyn experiment::Ca
     let remote = host_sim::teach::remote::RemoteCar::new(
         link,
         host_sim::teach::remote::RemoteConfig {
-            mode: args.frame_mode,
+            mode: args.frame_mode.0,
             try_timeout: std::time::Duration::from_millis(args.try_timeout_ms.max(1)),
             ..Default::default()
         },
@@ -265,26 +251,11 @@ fn car_link(args: &RunArgs, config: &RunConfig) -> Result<Box<dyn experiment::Ca
     Ok(Box::new(remote))
 }
 
-fn parse_statements(s: &str) -> Result<StatementSet, String> {
-    StatementSet::from_name(s)
-        .ok_or_else(|| format!("unknown statement set '{s}', expected paper or rich"))
-}
-
-fn parse_mode(s: &str) -> Result<Mode, String> {
-    Mode::from_name(s).ok_or_else(|| {
-        format!("unknown feedback '{s}', expected one of action, preference, semantic, bc, teacher")
-    })
-}
-
 fn run_config(args: &RunArgs) -> Result<RunConfig> {
     let scenario = load_scenario(&args.scenario)?;
-    let kind = args
+    let learner = args
         .learner
-        .unwrap_or_else(|| host_sim::teach::learners::default_learner(args.feedback));
-    let mut learner = LearnerParams::new(kind);
-    if let Some(step) = args.step {
-        learner = learner.with_step(step);
-    }
+        .params(|| host_sim::teach::learners::default_learner(args.feedback));
     let config = RunConfig {
         mode: args.feedback,
         steps: args.steps,

@@ -157,11 +157,11 @@ fn bad_input_is_a_clear_error_and_a_failure_exit() {
         ),
         (
             &["run", "--feedback", "shouting", "--out", out],
-            "unknown feedback 'shouting'",
+            "invalid value 'shouting' for '--feedback <FEEDBACK>'",
         ),
         (
             &["run", "--learner", "sgd", "--out", out],
-            "unknown learner 'sgd'",
+            "[possible values: ogd, ogd-decaying, averaged-ogd, adagrad, coactive]",
         ),
         (
             &["run", "--step", "-0.5", "--out", out],

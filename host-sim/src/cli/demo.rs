@@ -1,10 +1,10 @@
 //! `host-sim demo`: the learner against a synthetic teacher, no world.
 
 use anyhow::Result;
-use firmware_core::{LearnerKind, LearnerParams};
+use firmware_core::LearnerKind;
 use host_sim::teach::synthetic::{self, SyntheticConfig};
 
-use super::parse_kind;
+use super::LearnerArgs;
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct DemoArgs {
@@ -20,12 +20,8 @@ pub(crate) struct DemoArgs {
     /// Probability that a correction names a random action instead of the teacher's best.
     #[arg(long, default_value_t = 0.0)]
     noise: f64,
-    /// Online learner: ogd, ogd-decaying, averaged-ogd, adagrad or coactive.
-    #[arg(long, default_value = "averaged-ogd", value_parser = parse_kind)]
-    learner: LearnerKind,
-    /// Step size (default: the learner's own, 0.01 for the OGD family).
-    #[arg(long)]
-    step: Option<f32>,
+    #[command(flatten)]
+    learner: LearnerArgs,
     /// Number of lines of the printed curve (rows cover geometrically growing spans of rounds).
     #[arg(long, default_value_t = 16)]
     rows: usize,
@@ -36,10 +32,7 @@ pub(crate) fn demo(args: &DemoArgs) -> Result<()> {
         args.steps > 0 && args.rows > 0,
         "--steps and --rows must be positive"
     );
-    let mut learner = LearnerParams::new(args.learner);
-    if let Some(step) = args.step {
-        learner = learner.with_step(step);
-    }
+    let learner = args.learner.params(|| LearnerKind::AveragedOgd);
     let config = SyntheticConfig {
         steps: args.steps,
         seed: args.seed,
@@ -54,7 +47,7 @@ pub(crate) fn demo(args: &DemoArgs) -> Result<()> {
         config.seed,
         config.threshold,
         100.0 * config.noise,
-        args.learner.name()
+        learner.kind.name()
     );
     let report = synthetic::run(&config)?;
     // Row boundaries spaced geometrically, so the fast early learning gets rows of its own.

@@ -5,22 +5,15 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 
-use super::{prepare_out, progress_bar, worker_pool};
+use super::{GridArgs, prepare_out, progress_bar, worker_pool};
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct ReproduceArgs {
     /// Trials per setting (trial t has seed SEED + t).
     #[arg(long, default_value_t = 10)]
     trials: u32,
-    /// Control ticks per trial.
-    #[arg(long, default_value_t = 5_000)]
-    steps: u32,
-    /// Seed of trial 0.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Worker threads (default: one per core). The outputs do not depend on it.
-    #[arg(long)]
-    jobs: Option<usize>,
+    #[command(flatten)]
+    grid: GridArgs,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out/reproduce")]
     out: PathBuf,
@@ -40,15 +33,8 @@ pub(crate) struct ScaleSweepArgs {
     /// says how many).
     #[arg(long, default_value_t = 5)]
     trials: u32,
-    /// Control ticks per trial.
-    #[arg(long, default_value_t = 5_000)]
-    steps: u32,
-    /// Seed of trial 0.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Worker threads (default: one per core). The output does not depend on it.
-    #[arg(long)]
-    jobs: Option<usize>,
+    #[command(flatten)]
+    grid: GridArgs,
     /// The Markdown file to write.
     #[arg(long, default_value = "out/SCALE_SWEEP.md")]
     out: PathBuf,
@@ -58,14 +44,14 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
     use host_sim::report::{self, Options, Shard};
     let o = Options {
         trials: args.trials,
-        steps: args.steps,
-        seed: args.seed,
+        steps: args.grid.steps,
+        seed: args.grid.seed,
         teacher_scale: args.teacher_scale,
     };
     o.check()?;
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     prepare_out(&args.out)?;
-    let pool = worker_pool(args.jobs)?;
+    let pool = worker_pool(args.grid.jobs)?;
     let jobs = report::jobs(&o, shard).len();
     let bar = progress_bar(
         jobs as u64,
@@ -105,12 +91,12 @@ pub(crate) fn scale_sweep(args: &ScaleSweepArgs) -> Result<()> {
     use host_sim::report::{self, Options, Shard};
     let o = Options {
         trials: args.trials,
-        steps: args.steps,
-        seed: args.seed,
+        steps: args.grid.steps,
+        seed: args.grid.seed,
         teacher_scale: 1.0,
     };
     o.check()?;
-    let pool = worker_pool(args.jobs)?;
+    let pool = worker_pool(args.grid.jobs)?;
     if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
         prepare_out(parent)?;
     }

@@ -32,23 +32,26 @@ pub(crate) fn task_cells(a: &Aggregate) -> String {
 pub(crate) const TASK_HEAD: &str =
     "laps (trials that lapped) | progress (m) | resets: collision / stuck / lost / blocked";
 
-/// One row per setting of `group`: its key column, the losses, the corrections, the task.
+/// One row per setting of `group`: its key columns (`keys`, the values `key_of` gives), the
+/// losses, the corrections, the task.
 pub(crate) fn summary_table(
     r: &mut String,
     aggs: &[Aggregate],
     group: Group,
-    key: &str,
-    key_of: impl Fn(&Aggregate) -> String,
+    keys: &[&str],
+    key_of: impl Fn(&Aggregate) -> Vec<String>,
 ) {
     let _ = writeln!(
         r,
-        "| {key} | first-tenth loss | final loss | corrections | first → last tenth corrections | {TASK_HEAD} |\n|---|---|---|---|---|---|---|---|"
+        "| {} | first-tenth loss | final loss | corrections | first → last tenth corrections | {TASK_HEAD} |\n|{}",
+        keys.join(" | "),
+        "---|".repeat(keys.len() + 7)
     );
     for a in aggs.iter().filter(|a| a.setting.group == group) {
         let _ = writeln!(
             r,
             "| {} | {} | {} | {} | {:.1} → {:.1} | {} |",
-            key_of(a),
+            key_of(a).join(" | "),
             claims::pm(a.first_loss),
             claims::pm(a.final_loss),
             claims::pm1(a.total_corrections),
@@ -202,24 +205,13 @@ pub(crate) fn report(
          ours are in this project's features and calibrated teachers, so compare the shapes and the \
          orders, not the values.\n"
     );
-    let _ = writeln!(
-        r,
-        "| household | feedback | first-tenth loss | final loss | corrections | first → last tenth corrections | {TASK_HEAD} |\n|---|---|---|---|---|---|---|---|---|"
+    summary_table(
+        &mut r,
+        aggs,
+        Group::Variety,
+        &["household", "feedback"],
+        |a| vec![a.setting.household.into(), a.setting.mode.name().into()],
     );
-    for a in aggs.iter().filter(|a| a.setting.group == Group::Variety) {
-        let _ = writeln!(
-            r,
-            "| {} | {} | {} | {} | {} | {:.1} → {:.1} | {} |",
-            a.setting.household,
-            a.setting.mode.name(),
-            claims::pm(a.first_loss),
-            claims::pm(a.final_loss),
-            claims::pm1(a.total_corrections),
-            a.first_tenth_corrections.0,
-            a.last_tenth_corrections.0,
-            task_cells(a)
-        );
-    }
     let _ = writeln!(
         r,
         "\n## Task success\n\n![task success](figures/task_success.png)\n\n\
@@ -234,8 +226,8 @@ pub(crate) fn report(
          The paper's figure has the four curves σ = 0, 0.25, 0.5, 1.0; the sweep to σ = 2 (the \
          second figure) is ours.\n"
     );
-    summary_table(&mut r, aggs, Group::Noise, "σ", |a| {
-        a.setting.noise.to_string()
+    summary_table(&mut r, aggs, Group::Noise, &["σ"], |a| {
+        vec![a.setting.noise.to_string()]
     });
     let _ = writeln!(
         r,
@@ -243,8 +235,8 @@ pub(crate) fn report(
          The paper's figure has the thresholds 0 to 1; 2, 4 and 8 are ours, so that the whole \
          regime, up to where the teacher stops correcting, is visible.\n"
     );
-    summary_table(&mut r, aggs, Group::Thresholds, "threshold", |a| {
-        a.setting.threshold.to_string()
+    summary_table(&mut r, aggs, Group::Thresholds, &["threshold"], |a| {
+        vec![a.setting.threshold.to_string()]
     });
     let _ = writeln!(
         r,

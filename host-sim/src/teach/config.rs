@@ -22,6 +22,15 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// Every mode, in the order of the command line's list.
+    pub const ALL: [Mode; 5] = [
+        Mode::Online(FeedbackKind::Action),
+        Mode::Online(FeedbackKind::Preference),
+        Mode::Online(FeedbackKind::Semantic),
+        Mode::BehaviourCloning,
+        Mode::Teacher,
+    ];
+
     /// The name used on the command line: action, preference, semantic, bc, teacher.
     pub const fn name(self) -> &'static str {
         match self {
@@ -33,14 +42,18 @@ impl Mode {
 
     /// The mode called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "bc" => Some(Mode::BehaviourCloning),
-            "teacher" => Some(Mode::Teacher),
-            _ => FeedbackKind::ALL
-                .into_iter()
-                .find(|k| k.name() == name)
-                .map(Mode::Online),
-        }
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// `--feedback NAME` on the command line.
+impl clap::ValueEnum for Mode {
+    fn value_variants<'a>() -> &'a [Self] {
+        &Self::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.name()))
     }
 }
 

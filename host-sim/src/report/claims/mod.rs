@@ -120,6 +120,19 @@ pub fn task(a: &Aggregate) -> String {
     )
 }
 
+/// `f` of each aggregate, joined by `sep`: "0.010 ± 0.002, 0.031 ± 0.004".
+pub fn join(aggs: &[&Aggregate], sep: &str, f: impl Fn(&Aggregate) -> String) -> String {
+    aggs.iter().map(|a| f(a)).collect::<Vec<_>>().join(sep)
+}
+
+/// " Where the cars got: LABEL: TASK; …." for the settings `aggs`, each labelled by `label`.
+pub fn where_they_got(aggs: &[&Aggregate], label: impl Fn(&Aggregate) -> String) -> String {
+    format!(
+        " Where the cars got: {}.",
+        join(aggs, "; ", |a| format!("{}: {}", label(a), task(a)))
+    )
+}
+
 /// The pairs `(i, i+1)` where `v` does not strictly increase.
 pub fn breaks_increase(v: &[f64]) -> Vec<usize> {
     (0..v.len().saturating_sub(1))
