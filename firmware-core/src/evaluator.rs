@@ -91,7 +91,8 @@
 //!
 //! let mut evaluator = Evaluator::new();
 //! let mut table = FeatureTable::ZERO;
-//! let allowed = evaluator.evaluate(&Observation::open_space(), &mut table).unwrap();
+//! let obs = Observation::open_space();
+//! let allowed = evaluator.evaluate(obs.check().unwrap(), &mut table);
 //! assert_eq!(allowed, ActionMask::ALL); // nothing to hit
 //! ```
 
@@ -103,7 +104,7 @@ use crate::lattice::{
     ROW_SCALE, Reach, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS, TAIL_OF,
     TRAJECTORIES, UNIQUE_SAMPLES,
 };
-use crate::observation::{MAX_OBJECTS, Observation, ObservationError, SemanticClass};
+use crate::observation::{MAX_OBJECTS, Observation, SemanticClass, ValidObservation};
 
 pub use crate::lattice::COLLISION_RADIUS;
 
@@ -139,6 +140,27 @@ const SCRATCH: usize = UNIQUE_SAMPLES.next_power_of_two();
 
 /// A set of beams, one bit each: beams 0–31, then 32–63.
 type Beams = [u32; 2];
+
+/// One observation evaluated: the features of every action (all zeros for those that collide)
+/// and the actions that do not collide. Made only by [`Evaluator::evaluation`], so an agent can
+/// act on it as on its own evaluation.
+#[derive(Clone, PartialEq, Debug)]
+pub struct Evaluation {
+    table: FeatureTable,
+    allowed: ActionMask,
+}
+
+impl Evaluation {
+    /// The features of every action.
+    pub fn table(&self) -> &FeatureTable {
+        &self.table
+    }
+
+    /// The actions that do not collide.
+    pub fn allowed(&self) -> ActionMask {
+        self.allowed
+    }
+}
 
 /// The evaluator and its scratch memory (about 2.6 KiB), reused from tick to tick.
 ///
@@ -202,15 +224,11 @@ impl Evaluator {
         }
     }
 
-    /// Validates `obs`, writes the features of every trajectory that does not collide into `out`
-    /// (the rows of the colliding ones are zero), and returns the trajectories that do not
-    /// collide. On `Err`, `out` is untouched.
-    pub fn evaluate(
-        &mut self,
-        obs: &Observation,
-        out: &mut FeatureTable,
-    ) -> Result<ActionMask, ObservationError> {
-        obs.validate()?;
+    /// Writes the features of every trajectory that does not collide into `out` (the rows of
+    /// the colliding ones are zero), and returns the trajectories that do not collide.
+    ///
+    /// The observation was validated once, by [`Observation::check`].
+    pub fn evaluate(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> ActionMask {
         let obstacles = self.obstacles(&obs.scan.ranges);
         let rows = out.rows_mut();
         let allowed = match obstacles {
@@ -231,11 +249,20 @@ impl Evaluator {
         };
         if allowed != 0 {
             for class in SemanticClass::ALL {
-                self.semantic(obs, class, allowed, rows);
+                self.semantic(&obs, class, allowed, rows);
             }
-            path_and_side(obs, allowed, rows);
+            path_and_side(&obs, allowed, rows);
         }
-        Ok(ActionMask::from_bits(allowed))
+        ActionMask::from_bits(allowed)
+    }
+
+    /// [`Evaluator::evaluate`] into an [`Evaluation`] of its own, which an
+    /// [`Agent`](crate::agent::Agent) can act on without evaluating again
+    /// ([`Agent::act_evaluated`](crate::agent::Agent::act_evaluated)).
+    pub fn evaluation(&mut self, obs: ValidObservation<'_>) -> Evaluation {
+        let mut table = FeatureTable::ZERO;
+        let allowed = self.evaluate(obs, &mut table);
+        Evaluation { table, allowed }
     }
 
     /// Decides which trajectories collide, then measures the clipped obstacle clearance of every

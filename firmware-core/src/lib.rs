@@ -17,7 +17,8 @@
 //! ```
 //!
 //! * [`observation`]: what the car observes in one tick (a 64-beam downsampled scan, up to 8
-//!   semantic objects, the path reference 1 m ahead, its speed), validated before use.
+//!   semantic objects, the path reference 1 m ahead, its speed), checked once into a
+//!   [`ValidObservation`](observation::ValidObservation) before use.
 //! * [`lattice`]: the 64 candidate trajectories, fixed at compile time by `build.rs` (49 cruise
 //!   shapes of two curvature segments, lane shifts included, and 15 slow creep arcs).
 //! * [`evaluator`]: from one observation, the features of all 64 trajectories and the collision

@@ -14,7 +14,7 @@ use support::naive;
 
 fn evaluate(obs: &Observation) -> (FeatureTable, ActionMask) {
     let mut table = FeatureTable::ZERO;
-    let mask = Evaluator::new().evaluate(obs, &mut table).unwrap();
+    let mask = Evaluator::new().evaluate(obs.check().unwrap(), &mut table);
     (table, mask)
 }
 
@@ -142,13 +142,18 @@ proptest! {
 }
 
 #[test]
-fn invalid_observations_are_refused_and_the_table_untouched() {
+fn invalid_observations_are_refused_before_the_evaluator() {
     let mut obs = Observation::open_space();
     obs.scan.ranges[10] = f32::NAN;
-    let mut table = FeatureTable::ZERO;
-    table[ActionIndex::FIRST][0] = 42.0;
-    assert!(Evaluator::new().evaluate(&obs, &mut table).is_err());
-    assert_eq!(table[ActionIndex::FIRST][0], 42.0);
+    assert!(
+        obs.check().is_err(),
+        "no ValidObservation, so no evaluation"
+    );
+    // The evaluation the agent can take is the evaluator's own, bit for bit.
+    let good = Observation::open_space();
+    let (table, mask) = evaluate(&good);
+    let evaluation = Evaluator::new().evaluation(good.check().unwrap());
+    assert_eq!((evaluation.table(), evaluation.allowed()), (&table, mask));
 }
 
 /// A wall ahead at `x` metres: every beam that points forwards hits it.
