@@ -141,6 +141,35 @@ proptest! {
     }
 }
 
+/// The reference's constants are its own, written from the documented feature definitions; the
+/// crate's must equal them, so a changed constant fails here by name (and not only in a hash).
+#[test]
+fn crate_constants_equal_the_documented_ones_of_the_reference() {
+    use firmware_core::evaluator::{COLLISION_RADIUS, PATH_CLIP, RIGHT_SCALE, SEMANTIC_CLIP};
+    use firmware_core::lattice::{OBSTACLE_CLIP, SAMPLES};
+    assert_eq!(
+        COLLISION_RADIUS,
+        naive::COLLISION_RADIUS,
+        "collision radius"
+    );
+    assert_eq!(OBSTACLE_CLIP, naive::OBSTACLE_CLIP, "obstacle clip");
+    assert_eq!(SEMANTIC_CLIP, naive::SEMANTIC_CLIP, "semantic clip");
+    assert_eq!(PATH_CLIP, naive::PATH_CLIP, "path clip");
+    assert_eq!(RIGHT_SCALE, naive::RIGHT_SCALE, "lateral scale");
+    assert_eq!(
+        SAMPLES,
+        naive::COUNTED_SAMPLES,
+        "samples a trajectory counts as"
+    );
+    // A class with no object: the same reading in both.
+    let (table, _) = evaluate(&Observation::open_space());
+    for a in ActionIndex::all() {
+        for class in SemanticClass::ALL {
+            assert_eq!(table[a][class.feature().index()], naive::ABSENT_CLASS);
+        }
+    }
+}
+
 #[test]
 fn invalid_observations_are_refused_before_the_evaluator() {
     let mut obs = Observation::open_space();
