@@ -7,33 +7,60 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use nalgebra::{Isometry2, Point2, Translation2, UnitComplex, Vector2};
+
 #[path = "src/lattice/params.rs"]
 #[allow(dead_code, unreachable_pub)]
 mod params;
 
 use params::*;
 
+/// A pose of the car's rear axle in the frame of the trajectory's start: where it is, and its
+/// heading (tracked as an angle, the sum of curvature × arc length, and turned into a rotation by
+/// `libm`, never by the platform's `sin`, so that every build host makes the same tables).
 #[derive(Clone, Copy)]
 struct Pose {
-    x: f64,
-    y: f64,
-    theta: f64,
+    at: Point2<f64>,
+    heading: f64,
 }
 
-/// Advances `p` along an arc of curvature `k` by `s` metres (exact closed form).
+impl Pose {
+    const START: Self = Self {
+        at: Point2::new(0.0, 0.0),
+        heading: 0.0,
+    };
+
+    /// The rotation of the heading.
+    fn rotation(&self) -> UnitComplex<f64> {
+        UnitComplex::from_cos_sin_unchecked(libm::cos(self.heading), libm::sin(self.heading))
+    }
+
+    /// The pose as an isometry of the start's frame.
+    fn isometry(&self) -> Isometry2<f64> {
+        Isometry2::from_parts(Translation2::from(self.at.coords), self.rotation())
+    }
+}
+
+/// The unit vector at right angles to heading `theta`, pointing away from the centre of a left
+/// turn: `(sin θ, −cos θ)`.
+fn normal(theta: f64) -> Vector2<f64> {
+    Vector2::new(libm::sin(theta), -libm::cos(theta))
+}
+
+/// Advances `p` along an arc of curvature `k` by `s` metres (exact closed form): the chord of an
+/// arc from heading θ₁ to θ₂ = θ₁ + k·s is `(n(θ₂) − n(θ₁)) / k`, a straight step is `s` along
+/// the heading.
 fn arc(p: Pose, k: f64, s: f64) -> Pose {
     if k.abs() < 1e-12 {
         Pose {
-            x: p.x + s * libm::cos(p.theta),
-            y: p.y + s * libm::sin(p.theta),
-            theta: p.theta,
+            at: p.at + p.rotation() * Vector2::new(s, 0.0),
+            heading: p.heading,
         }
     } else {
-        let theta = p.theta + k * s;
+        let heading = p.heading + k * s;
         Pose {
-            x: p.x + (libm::sin(theta) - libm::sin(p.theta)) / k,
-            y: p.y - (libm::cos(theta) - libm::cos(p.theta)) / k,
-            theta,
+            at: p.at + (normal(heading) - normal(p.heading)) / k,
+            heading,
         }
     }
 }
@@ -54,11 +81,7 @@ impl Traj {
 
     /// Pose after `s` metres.
     fn pose_at(&self, s: f64) -> Pose {
-        let mut p = Pose {
-            x: 0.0,
-            y: 0.0,
-            theta: 0.0,
-        };
+        let mut p = Pose::START;
         let mut left = s;
         for &(k, len) in &self.segments {
             let step = left.min(len);
@@ -180,9 +203,9 @@ fn main() {
             write!(
                 poses,
                 "Pose {{ x: {}, y: {}, theta: {} }}, ",
-                f(p.x),
-                f(p.y),
-                f(p.theta)
+                f(p.at.x),
+                f(p.at.y),
+                f(p.heading)
             )
             .unwrap();
         }
@@ -192,12 +215,12 @@ fn main() {
         counts.push(count);
         for (k, slot) in idx.iter_mut().enumerate() {
             let s = SAMPLE_SPACING as f64 * (k.min(count - 1) + 1) as f64;
-            let p = t.pose_at(s);
-            let c = FOOTPRINT_CENTER_OFFSET as f64;
-            let pt = (
-                (p.x + c * libm::cos(p.theta)) as f32,
-                (p.y + c * libm::sin(p.theta)) as f32,
-            );
+            // The footprint's centre, FOOTPRINT_CENTER_OFFSET ahead of the rear axle.
+            let centre = t
+                .pose_at(s)
+                .isometry()
+                .transform_point(&Point2::new(FOOTPRINT_CENTER_OFFSET as f64, 0.0));
+            let pt = (centre.x as f32, centre.y as f32);
             write!(centers, "[{:?}, {:?}], ", pt.0, pt.1).unwrap();
             *slot = match points
                 .iter()

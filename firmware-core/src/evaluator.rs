@@ -96,6 +96,8 @@
 //! assert_eq!(allowed, ActionMask::ALL); // nothing to hit
 //! ```
 
+use nalgebra::{Isometry2, Translation2, UnitComplex};
+
 use crate::action::{ActionMask, MAX_ACTIONS};
 use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
 use crate::lattice::{
@@ -738,20 +740,21 @@ const fn bins_below(d: f32) -> usize {
 /// are never read: the bands end at `RANGE_BINS`).
 const SHORTER: usize = (RANGE_BINS + 1).next_power_of_two();
 
-/// Path error and lateral offset of every trajectory's end.
+/// Path error and lateral offset of every allowed trajectory's end: the end in the frame of the
+/// path reference (`along`, `cross`), and the end's `y`.
 fn path_and_side(obs: &Observation, allowed: u64, rows: &mut [Features; MAX_ACTIONS]) {
     let p = &obs.reference;
-    let (s, c) = (libm::sinf(p.heading), libm::cosf(p.heading));
+    // Cosine and sine from `libm`: the same bits on the host and the car.
+    let reference = Isometry2::from_parts(
+        Translation2::new(p.x, p.y),
+        UnitComplex::from_cos_sin_unchecked(libm::cosf(p.heading), libm::sinf(p.heading)),
+    );
     for_each_action(allowed, |a| {
-        let (row, t) = (&mut rows[a], &TRAJECTORIES[a]);
-        let e = t.end();
-        let dx = e.x - p.x;
-        let dy = e.y - p.y;
-        let along = dx * c + dy * s;
-        let cross = dy * c - dx * s;
-        let error = libm::fabsf(along) + libm::fabsf(cross);
+        let (row, end) = (&mut rows[a], TRAJECTORIES[a].end().position());
+        let local = reference.inverse_transform_point(&end);
+        let error = libm::fabsf(local.x) + libm::fabsf(local.y);
         row[Feature::Path.index()] = if error < PATH_CLIP { error } else { PATH_CLIP };
-        row[Feature::Right.index()] = -RIGHT_SCALE * e.y;
+        row[Feature::Right.index()] = -RIGHT_SCALE * end.y;
     });
 }
 

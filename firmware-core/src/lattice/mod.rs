@@ -45,9 +45,12 @@ mod params;
 
 pub use params::*;
 
+use nalgebra::{Isometry2, Point2, Translation2, UnitComplex};
+
 use crate::action::{ActionIndex, MAX_ACTIONS};
 
-/// A pose in the car frame.
+/// A pose in the car frame, as the generated tables hold it: position and heading angle. The
+/// geometry is [`Pose::isometry`]'s.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct Pose {
     /// Forward (m).
@@ -56,6 +59,23 @@ pub struct Pose {
     pub y: f32,
     /// Heading (rad, counter-clockwise).
     pub theta: f32,
+}
+
+impl Pose {
+    /// Where the rear axle is.
+    pub fn position(&self) -> Point2<f32> {
+        Point2::new(self.x, self.y)
+    }
+
+    /// The heading as a rotation (cosine and sine from `libm`, the same bits on every target).
+    pub fn rotation(&self) -> UnitComplex<f32> {
+        UnitComplex::from_cos_sin_unchecked(libm::cosf(self.theta), libm::sinf(self.theta))
+    }
+
+    /// The pose as an isometry: from the frame of the car at this pose to the car frame.
+    pub fn isometry(&self) -> Isometry2<f32> {
+        Isometry2::from_parts(Translation2::new(self.x, self.y), self.rotation())
+    }
 }
 
 /// One constant-curvature piece of a trajectory.
@@ -201,7 +221,7 @@ mod tests {
             // Consecutive samples are one step of arc length apart (chords of gentle arcs).
             let mut prev = Pose::default();
             for p in &t.poses {
-                let d = ((p.x - prev.x).powi(2) + (p.y - prev.y).powi(2)).sqrt();
+                let d = (p.position() - prev.position()).norm();
                 assert!((d - len / SAMPLES as f32).abs() < 2e-3, "{a}: step {d}");
                 prev = *p;
             }
@@ -266,9 +286,10 @@ mod tests {
                 };
                 let [x, y] = SAMPLE_POINTS[u as usize];
                 assert_eq!([x, y], t.samples()[k]);
-                let cx = p.x + FOOTPRINT_CENTER_OFFSET * libm::cosf(p.theta);
-                let cy = p.y + FOOTPRINT_CENTER_OFFSET * libm::sinf(p.theta);
-                assert!((x - cx).abs() < 1e-5 && (y - cy).abs() < 1e-5, "{a}/{k}");
+                let centre = p
+                    .isometry()
+                    .transform_point(&Point2::new(FOOTPRINT_CENTER_OFFSET, 0.0));
+                assert!((Point2::new(x, y) - centre).norm() < 1e-5, "{a}/{k}");
             }
         }
         // Every sample knows its trajectories, and belongs to one cluster, within its spread.
