@@ -317,10 +317,14 @@ impl Evaluator {
             if cluster.trajectories & !collided == 0 {
                 continue;
             }
-            let beams = self.near_set(cluster, close);
-            if beams[0] | beams[1] == 0 {
-                continue;
-            }
+            let beams = match self.near_set(cluster, close) {
+                Near::None => continue,
+                Near::Collides => {
+                    collided |= cluster.trajectories;
+                    continue;
+                }
+                Near::Beams(beams) => beams,
+            };
             for u in members(cluster) {
                 let trajectories = SAMPLE_TRAJECTORIES[u];
                 if trajectories & !collided == 0 {
@@ -328,13 +332,11 @@ impl Evaluator {
                 }
                 let best = self.nearest(u, beams, clip2);
                 if best < collide2 {
+                    // Its trajectories collide: its clearance is never read.
                     collided |= trajectories;
+                } else if best < clip2 {
+                    self.clearance[u] = clipped(sqrt(best), OBSTACLE_CLIP);
                 }
-                self.clearance[u] = if best < clip2 {
-                    clipped(sqrt(best), OBSTACLE_CLIP)
-                } else {
-                    OBSTACLE_CLIP
-                };
             }
         }
         Obstacles::Measured(!collided)
@@ -346,10 +348,10 @@ impl Evaluator {
     /// member is within `m + s` of that point, and a point farther than `m + 2s` from the centre
     /// is farther than `m + s` from every member: only the points within `m + 2s` of the centre
     /// (and within the clip + `s`) can be a member's nearest within the clip.
-    fn near_set(&mut self, cluster: &Cluster, close: Beams) -> Beams {
+    fn near_set(&mut self, cluster: &Cluster, close: Beams) -> Near {
         let beams = self.candidates(&cluster.clip, close);
         if beams[0] | beams[1] == 0 {
-            return beams;
+            return Near::None;
         }
         let [cx, cy] = cluster.centre;
         let mut m2 = f32::MAX;
@@ -371,10 +373,15 @@ impl Evaluator {
         let reach = OBSTACLE_CLIP + spread + REACH_MARGIN;
         if m2 >= reach * reach {
             // Every candidate is beyond the clip of every member.
-            return [0, 0];
+            return Near::None;
+        }
+        let m = sqrt(m2);
+        if (m + spread) * (1.0 + 1.0e-5) + REACH_MARGIN < COLLISION_RADIUS {
+            // Every member is within the collision radius of the centre's nearest point.
+            return Near::Collides;
         }
         // Generous against rounding: a relative 1e-5 and the 1 mm margin.
-        let near = (sqrt(m2) + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN;
+        let near = (m + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN;
         let limit = clipped(near, reach);
         let limit2 = limit * limit;
         let mut out = [0u32; 2];
@@ -388,7 +395,7 @@ impl Evaluator {
                 }
             }
         }
-        out
+        Near::Beams(out)
     }
 
     /// The beams that may come within `reach`'s distance of a cluster's samples: its window (or
@@ -682,6 +689,17 @@ fn for_each_action(mask: u64, mut f: impl FnMut(usize)) {
             bits &= bits - 1;
         }
     }
+}
+
+/// The scan points that matter to the members of a cluster.
+#[derive(Clone, Copy)]
+enum Near {
+    /// None within the clip of any member.
+    None,
+    /// Every member collides: one point is within the collision radius of all of them.
+    Collides,
+    /// The points that can be a member's nearest within the clip.
+    Beams(Beams),
 }
 
 /// What the obstacle pass found.
