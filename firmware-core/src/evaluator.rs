@@ -164,7 +164,7 @@ impl Evaluation {
     }
 }
 
-/// The evaluator and its scratch memory (about 2.6 KiB), reused from tick to tick.
+/// The evaluator and its scratch memory (3 328 bytes), reused from tick to tick.
 ///
 /// Keep one per agent, in a `static` on the car, so the linker accounts for it.
 #[derive(Clone, Debug)]
