@@ -139,9 +139,8 @@ impl StopCheck {
     /// Whether a stop for `obs` is the car's watchdog: the observation leaves some trajectory
     /// free, so the car's own answer would not be a stop (the same evaluator, the same mask).
     fn is_watchdog(&mut self, obs: &Observation) -> bool {
-        self.evaluator
-            .evaluate(obs, &mut self.table)
-            .is_ok_and(|mask| !mask.is_empty())
+        obs.check()
+            .is_ok_and(|obs| !self.evaluator.evaluate(obs, &mut self.table).is_empty())
     }
 }
 
