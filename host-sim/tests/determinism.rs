@@ -9,7 +9,7 @@ use host_sim::teacher::FeedbackKind;
 
 /// FNV-1a over the CSV bytes of [`golden_config`]. Change it only for an intended change of the
 /// simulation, and say so in the commit.
-const GOLDEN: u64 = 0x4c13_581b_4c3a_71dc;
+const GOLDEN: u64 = 0x7105_6f62_a70e_8567;
 
 fn golden_config() -> RunConfig {
     let s = Arc::new(registry::load_scenario("doors").unwrap());

@@ -1,5 +1,6 @@
 //! `host-sim run --link`: the same CSV as in process, with the learner in a `hil_mock` server
-//! (here a thread on UDP 127.0.0.1), and clear errors for bad link arguments.
+//! (here a thread on UDP 127.0.0.1) sharing its key, and clear errors for bad link arguments
+//! and a missing key.
 
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
 use std::process::{Command, Output};
@@ -24,18 +25,24 @@ fn run_over_udp_writes_the_same_csv_as_in_process() {
     let SocketAddr::V4(addr) = car.local_addr().unwrap() else {
         unreachable!("bound on 127.0.0.1")
     };
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = |name: &str| tmp.path().join(name).to_str().unwrap().to_string();
+    let key_file = dir("car.key");
+    let key = hil_mock::key::keygen(std::path::Path::new(&key_file)).unwrap();
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
     let server = std::thread::spawn(move || {
-        let mut s = Server::in_memory(CarConfig {
-            mode: FrameMode::Fd,
-            ..CarConfig::default()
-        });
+        let mut s = Server::in_memory(
+            CarConfig {
+                mode: FrameMode::Fd,
+                ..CarConfig::default()
+            },
+            &key,
+            42,
+        );
         s.run(&mut car, &flag).unwrap();
         s.node().stats()
     });
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = |name: &str| tmp.path().join(name).to_str().unwrap().to_string();
     let common = [
         "run",
         "--scenario",
@@ -52,7 +59,16 @@ fn run_over_udp_writes_the_same_csv_as_in_process() {
     let remote = host_sim(
         &[
             &common[..],
-            &["--out", &dir("remote"), "--link", &link, "--record", &log],
+            &[
+                "--out",
+                &dir("remote"),
+                "--link",
+                &link,
+                "--key",
+                &key_file,
+                "--record",
+                &log,
+            ],
         ]
         .concat(),
     );
@@ -75,16 +91,44 @@ fn bad_link_arguments_are_clear_errors() {
     let out = tmp.path().to_str().unwrap();
     for (args, why) in [
         (
-            vec!["run", "--out", out, "--link", "udp://10.0.0.1:4000"],
+            vec![
+                "run",
+                "--out",
+                out,
+                "--insecure",
+                "--link",
+                "udp://10.0.0.1:4000",
+            ],
             "127.0.0.1",
         ),
-        (vec!["run", "--out", out, "--link", "pigeon://x"], "scheme"),
+        (
+            vec!["run", "--out", out, "--insecure", "--link", "pigeon://x"],
+            "scheme",
+        ),
+        // No key: the host refuses to start, and says how to get one.
+        (
+            vec!["run", "--out", out, "--link", "udp://127.0.0.1:9"],
+            "hil_mock keygen",
+        ),
+        (
+            vec![
+                "run",
+                "--out",
+                out,
+                "--link",
+                "udp://127.0.0.1:9",
+                "--key",
+                "/nonexistent/car.key",
+            ],
+            "/nonexistent/car.key",
+        ),
         (vec!["run", "--out", out, "--record", "x.log"], "--link"),
         (
             vec![
                 "run",
                 "--out",
                 out,
+                "--insecure",
                 "--link",
                 "udp://127.0.0.1:9",
                 "--faults",
@@ -97,6 +141,7 @@ fn bad_link_arguments_are_clear_errors() {
                 "run",
                 "--out",
                 out,
+                "--insecure",
                 "--link",
                 "udp://127.0.0.1:9",
                 "--frame-mode",

@@ -17,8 +17,9 @@ use firmware_core::{
 use protocol::can::{CanFrame, FD_LENGTHS};
 use protocol::isotp::{FrameMode, Segmenter};
 use protocol::message::{
-    ActionCommand, ConfigureMessage, DeliveryId, ErrorCode, ErrorReport, FeedbackMessage,
-    Heartbeat, MAX_MESSAGE_SIZE, Message, ObservationMessage,
+    ActionCommand, CarStatus, ConfigureMessage, DeliveryId, ErrorCode, ErrorReport,
+    FeedbackMessage, Hello, MAX_MESSAGE_SIZE, Message, ObservationMessage, StopReason,
+    WeightsReport, Welcome,
 };
 use protocol::stream::{Direction, Stream};
 
@@ -65,7 +66,10 @@ fn messages() -> Vec<(&'static str, Message)> {
                 ActionCommand::new(41, Some(a(12))).with_allowed(ActionMask::from_bits(0xF0F0)),
             ),
         ),
-        ("stop", Message::Action(ActionCommand::stop(42))),
+        (
+            "stop",
+            Message::Action(ActionCommand::stop(42, StopReason::Watchdog)),
+        ),
         (
             "feedback_action",
             feedback(41, Feedback::Action(ActionFeedback { action: a(5) })),
@@ -99,8 +103,17 @@ fn messages() -> Vec<(&'static str, Message)> {
                 code: protocol::message::NackCode::UnknownTick,
             }),
         ),
-        ("heartbeat", Message::Heartbeat(Heartbeat { counter: 513 })),
-        ("weights", Message::Weights(learner.snapshot())),
+        ("heartbeat", Message::Heartbeat),
+        (
+            "weights",
+            Message::Weights(WeightsReport {
+                status: CarStatus {
+                    session: Some(3),
+                    generation: 17,
+                },
+                snapshot: learner.snapshot(),
+            }),
+        ),
         (
             "configure",
             Message::Configure(ConfigureMessage {
@@ -110,6 +123,25 @@ fn messages() -> Vec<(&'static str, Message)> {
             }),
         ),
         ("weights_request", Message::WeightsRequest),
+        (
+            "hello",
+            Message::Hello(Hello {
+                nonce: [1, 2, 3, 4, 5, 6, 7, 8],
+                epoch: 0,
+                counter: 0,
+            }),
+        ),
+        (
+            "welcome",
+            Message::Welcome(Welcome {
+                nonce: [1, 2, 3, 4, 5, 6, 7, 8],
+                epoch: 9,
+                counter: 4,
+                host_next: 0,
+                status: CarStatus::default(),
+                refused: 0,
+            }),
+        ),
         ("reset", Message::Reset),
         (
             "error",

@@ -184,6 +184,12 @@ pub trait CanBus {
 
     /// The next received frame, if one is waiting.
     fn receive(&mut self) -> Result<Option<CanFrame>, Self::Error>;
+
+    /// The frame received last completed an authenticated, fresh message: a transport that
+    /// has a notion of peers (UDP, a TCP connection) may trust its sender from now on (answer
+    /// it, keep its connection). Called before the answer is transmitted. Does nothing by
+    /// default (a bus has no peers).
+    fn authenticated(&mut self) {}
 }
 
 #[cfg(test)]

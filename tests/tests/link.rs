@@ -2,8 +2,9 @@
 //! (a `protocol::car::CarNode`) behind real transports, faults, restarts and the watchdog.
 //!
 //! Every run is compared with the same run in process: per-step CSV bytes and the final weights'
-//! bit patterns must be identical. Sockets are on 127.0.0.1, ports ephemeral. No assertion is
-//! about time: waits are generous upper bounds on things that must happen.
+//! bit patterns must be identical. Every message is authenticated with one test key. Sockets are
+//! on 127.0.0.1, ports ephemeral. No assertion is about time: waits are generous upper bounds on
+//! things that must happen.
 
 use std::io::{BufRead, BufReader};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener};
@@ -15,7 +16,7 @@ use std::thread::JoinHandle;
 use std::time::Duration;
 
 use firmware_core::observation::Observation;
-use hil_mock::flash::{FlashStore, PAGE_SIZE};
+use hil_mock::flash::{FlashStore, HEADER_SIZE, Open, PAGE_SIZE};
 use hil_mock::server::{LinkBus, Server};
 use hil_mock::transport::fault::{FaultConfig, FaultyLink};
 use hil_mock::transport::memory::MemoryLink;
@@ -29,10 +30,23 @@ use host_sim::remote::{RemoteCar, RemoteConfig, RemoteStats};
 use protocol::car::{CarConfig, CarStats, Persisted};
 use protocol::isotp::FrameMode;
 use protocol::link::{Inbox, Received, transmit};
-use protocol::message::{ActionCommand, Message, ObservationMessage};
+use protocol::message::{ActionCommand, ConfigureMessage, Message, ObservationMessage, StopReason};
+use protocol::secure::{HostSecurity, Key};
 use protocol::stream::Direction;
 
 const SEED: u64 = 11;
+
+/// The key of every car and host in these tests.
+const KEY: Key = Key::new([0x4B; 16]);
+
+/// Writes [`KEY`] to a key file in `dir` (as `hil_mock keygen` would, with a known key).
+fn key_file(dir: &Path) -> std::path::PathBuf {
+    let path = dir.join("car.key");
+    let mut text = KEY.to_hex().to_vec();
+    text.push(b'\n');
+    std::fs::write(&path, text).unwrap();
+    path
+}
 
 fn config(steps: u32) -> RunConfig {
     let scenario = host_sim::registry::load_scenario("doors").unwrap();
@@ -48,7 +62,7 @@ fn remote_config(mode: FrameMode) -> RemoteConfig {
         mode,
         try_timeout: Duration::from_millis(3),
         deadline: Duration::from_secs(30),
-        session: Some(40),
+        ..RemoteConfig::new(KEY)
     }
 }
 
@@ -64,7 +78,7 @@ impl ServerThread {
         let flag = stop.clone();
         let handle = std::thread::spawn(move || {
             let mut link = open();
-            let mut server = Server::in_memory(car);
+            let mut server = Server::in_memory(car, &KEY, 7);
             match server.run(&mut link, &flag) {
                 // The host hung up (a memory link's other end dropped): the end of the test.
                 Ok(()) | Err(hil_mock::transport::LinkError::Closed(_)) => {}
@@ -152,14 +166,14 @@ fn same_seed_same_bits_in_process_over_memory_udp_and_slcan() {
             .filter(|l| l.frame.id().raw() == id as u32)
             .count()
     };
-    // Every observation (5 FD frames each in open space, more with objects) and its action.
-    assert!(on(0x104) >= 5 * 600, "{}", on(0x104));
+    // Every observation (2 FD frames each, 3 with many objects) and its action.
+    assert!(on(0x104) >= 2 * 600, "{}", on(0x104));
     // At least one action frame per tick and one ack per feedback (more when a slow answer
     // made the host ask again).
     assert!(on(0x101) >= 600, "{}", on(0x101));
     assert!(on(0x107) >= local.corrections() as usize);
 
-    // slcan over TCP, classic CAN frames (56 per observation) both ways.
+    // slcan over TCP, classic CAN frames (up to 23 per observation) both ways.
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let SocketAddr::V4(addr) = listener.local_addr().unwrap() else {
         unreachable!("bound on 127.0.0.1")
@@ -240,7 +254,7 @@ fn faults_both_ways_lose_no_feedback_and_apply_none_twice() {
     }
 }
 
-/// The `hil_mock` program as a child process, serving UDP on a fixed port with a flash file.
+/// The `hil_mock` program as a child process, serving with a flash file and [`KEY`].
 struct Child9 {
     child: Child,
     port: u16,
@@ -254,9 +268,12 @@ fn spawn_server(flash: &Path, port: u16) -> Child9 {
 
 /// The same, listening with `scheme` (`udp-listen`, `slcan+tcp-listen`).
 fn spawn_server_on(flash: &Path, scheme: &str, port: u16) -> Child9 {
+    let key = key_file(flash.parent().expect("the flash file is in a folder"));
     let mut child = Command::new(env!("CARGO_BIN_EXE_hil_mock_server"))
         .args(["serve", "--link"])
         .arg(format!("{scheme}://127.0.0.1:{port}"))
+        .arg("--key")
+        .arg(key)
         .arg("--flash")
         .arg(flash)
         .stdout(Stdio::piped())
@@ -454,9 +471,16 @@ fn sigkill_and_restart(scheme: &'static str) {
         assert!(link.contains(&format!("reopened {KILLS} times")), "{link}");
     }
     // Every restart found what the previous process wrote (the configuration at least).
-    assert_eq!(log.matches("restored generation").count(), KILLS, "{log}");
+    assert_eq!(log.matches("restored write").count(), KILLS, "{log}");
+    // No restart lost state: the car was never configured again.
+    assert_eq!(remote.stats().restores, 0, "{:?}", remote.stats());
+    assert!(
+        remote.stats().car_restarts >= KILLS as u64,
+        "{:?}",
+        remote.stats()
+    );
     // The flash holds the final learner.
-    let (_, r) = FlashStore::open(&flash).unwrap();
+    let (_, r) = FlashStore::open(&flash, Open::Existing).unwrap();
     assert_eq!(r.unwrap().state.snapshot, report.final_snapshot);
 }
 
@@ -469,17 +493,18 @@ fn a_corrupted_page_on_disk_falls_back_to_the_other_page() {
     firmware_core::OnlineLearner::step(&mut older, &[0.5, -0.25, 0.0, 0.0, 1.0, 0.0]).unwrap();
     let mut newer = older;
     firmware_core::OnlineLearner::step(&mut newer, &[0.5, -0.25, 0.0, 0.0, 1.0, 0.0]).unwrap();
-    let state = |l: &firmware_core::Learner| Persisted {
+    let state = |l: &firmware_core::Learner, generation| Persisted {
         session: Some(3),
+        generation,
         snapshot: l.snapshot(),
         receiver: Default::default(),
     };
-    let (mut store, _) = FlashStore::open(&flash).unwrap();
-    store.save(&state(&older)).unwrap(); // page 0, generation 1
-    store.save(&state(&newer)).unwrap(); // page 1, generation 2
+    let (mut store, _) = FlashStore::open(&flash, Open::Existing).unwrap();
+    store.save(&state(&older, 1)).unwrap(); // page 0, write 1
+    store.save(&state(&newer, 2)).unwrap(); // page 1, write 2
     drop(store);
     let mut bytes = std::fs::read(&flash).unwrap();
-    bytes[PAGE_SIZE + 60] ^= 0x04; // one bit of the newer page's payload
+    bytes[HEADER_SIZE + PAGE_SIZE + 60] ^= 0x04; // one bit of the newer page's payload
     std::fs::write(&flash, &bytes).unwrap();
 
     let server = spawn_server(&flash, 0);
@@ -488,43 +513,95 @@ fn a_corrupted_page_on_disk_falls_back_to_the_other_page() {
     assert_eq!(remote.snapshot().unwrap(), older.snapshot());
     let log = server.stderr_when(|l| l.contains("restored"));
     assert!(
-        log.contains("restored generation 1 from page 0")
+        log.contains("restored write 1 from page 0")
             && log.contains("fell back from corrupt page 1"),
         "{log}"
     );
+    // The welcome told the host what the car holds.
+    assert_eq!(
+        remote.car_status(),
+        Some(protocol::message::CarStatus {
+            session: Some(3),
+            generation: 1
+        })
+    );
 }
 
-/// Sends one observation and returns the next action command the car sends for `tick`.
-fn observe(host: &mut MemoryLink, inbox: &mut Inbox, tick: u32) -> ActionCommand {
-    let msg = Message::Observation(ObservationMessage {
-        tick,
-        observation: Observation::open_space(),
-    });
-    transmit(
-        &mut LinkBus(host),
-        &msg,
-        Direction::HostToCar,
-        FrameMode::Fd,
-    )
-    .unwrap();
-    next_action(host, inbox)
+/// The host's side of a raw exchange with a car that just started in epoch 7 (as
+/// [`ServerThread`] starts it).
+struct RawHost {
+    link: MemoryLink,
+    inbox: Inbox,
+    sec: HostSecurity,
 }
 
-fn next_action(host: &mut MemoryLink, inbox: &mut Inbox) -> ActionCommand {
-    loop {
-        let f = host
-            .recv(Duration::from_secs(30))
-            .unwrap()
-            .expect("the car answers");
-        if let Received::Message(Message::Action(a)) = inbox.feed(&f, 0) {
-            return a;
+impl RawHost {
+    fn new(link: MemoryLink) -> Self {
+        Self {
+            link,
+            inbox: Inbox::new(Direction::CarToHost),
+            sec: HostSecurity::assume_fresh_car(&KEY, 7),
         }
+    }
+
+    fn send(&mut self, msg: &Message) {
+        transmit(
+            &mut LinkBus(&mut self.link),
+            msg,
+            Direction::HostToCar,
+            FrameMode::Fd,
+            &mut self.sec,
+        )
+        .unwrap();
+    }
+
+    /// The next message from the car.
+    fn next(&mut self) -> Message {
+        loop {
+            let f = self
+                .link
+                .recv(Duration::from_secs(30))
+                .unwrap()
+                .expect("the car answers");
+            if let Received::Message(m) = self.inbox.feed(&f, 0, &mut self.sec) {
+                return m;
+            }
+        }
+    }
+
+    fn next_action(&mut self) -> ActionCommand {
+        loop {
+            if let Message::Action(a) = self.next() {
+                return a;
+            }
+        }
+    }
+
+    fn configure(&mut self) {
+        self.send(&Message::Configure(ConfigureMessage {
+            session: 1,
+            snapshot: hil_mock::server::fresh_learner().snapshot(),
+        }));
+        assert_eq!(
+            self.next_action(),
+            ActionCommand::stop(0, StopReason::Reconfigured)
+        );
+        assert!(matches!(self.next(), Message::Weights(_)));
+    }
+
+    /// Sends one observation and returns the next action command.
+    fn observe(&mut self, tick: u32) -> ActionCommand {
+        self.send(&Message::Observation(ObservationMessage {
+            tick,
+            observation: Observation::open_space(),
+        }));
+        self.next_action()
     }
 }
 
 #[test]
 fn the_watchdog_stops_the_car_and_the_next_observation_resumes() {
-    let (mut host, car_end) = MemoryLink::pair();
+    let (host, car_end) = MemoryLink::pair();
     let server = ServerThread::spawn(
         move || car_end,
         CarConfig {
@@ -532,20 +609,41 @@ fn the_watchdog_stops_the_car_and_the_next_observation_resumes() {
             mode: FrameMode::Fd,
         },
     );
-    let mut inbox = Inbox::new(Direction::CarToHost);
-    let first = observe(&mut host, &mut inbox, 1);
-    assert!(first.track.is_some());
+    let mut host = RawHost::new(host);
+    host.configure();
+    let first = host.observe(1);
+    assert!(first.track().is_some());
     // Silence: the car commands one stop for its last tick (waited for, not timed).
-    let stop = next_action(&mut host, &mut inbox);
-    assert_eq!(stop, ActionCommand::stop(1));
+    let stop = host.next_action();
+    assert_eq!(stop, ActionCommand::stop(1, StopReason::Watchdog));
     // Observations return: it drives again, and stops again when they stop.
-    let resumed = observe(&mut host, &mut inbox, 2);
+    let resumed = host.observe(2);
     assert_eq!(resumed.tick, 2);
-    assert!(resumed.track.is_some());
-    assert_eq!(next_action(&mut host, &mut inbox), ActionCommand::stop(2));
+    assert!(resumed.track().is_some());
+    assert_eq!(
+        host.next_action(),
+        ActionCommand::stop(2, StopReason::Watchdog)
+    );
+    // Issue 14: a reset stops the car at once and does not disarm the watchdog: when the car
+    // drives again and observations cease, the stop comes.
+    assert!(host.observe(3).track().is_some());
+    host.send(&Message::Reset);
+    assert_eq!(
+        host.next_action(),
+        ActionCommand::stop(3, StopReason::Reset)
+    );
+    assert!(host.observe(4).track().is_some());
+    assert_eq!(
+        host.next_action(),
+        ActionCommand::stop(4, StopReason::Watchdog)
+    );
     drop(host);
     let stats = server.stop();
-    assert_eq!((stats.watchdog_stops, stats.actions), (2, 2));
+    assert_eq!((stats.watchdog_stops, stats.actions), (3, 4));
+    assert_eq!(
+        stats.commanded_stops, 2,
+        "the configuration's and the reset's"
+    );
 }
 
 #[test]

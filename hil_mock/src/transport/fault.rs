@@ -241,6 +241,10 @@ impl<L: Link> Link for FaultyLink<L> {
         }
     }
 
+    fn authenticated(&mut self) {
+        self.inner.authenticated()
+    }
+
     fn describe(&self) -> String {
         format!("{} with faults {:?}", self.inner.describe(), self.config)
     }

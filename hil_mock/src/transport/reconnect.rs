@@ -117,6 +117,12 @@ impl Link for ReconnectingLink {
         }
     }
 
+    fn authenticated(&mut self) {
+        if let Some(link) = self.inner.as_mut() {
+            link.authenticated();
+        }
+    }
+
     fn describe(&self) -> String {
         let state = match (&self.inner, &self.last_error) {
             (Some(link), _) => link.describe(),

@@ -36,10 +36,14 @@ pub fn format_frame(frame: &CanFrame) -> String {
 }
 
 /// Parses candump's `ID#DATA` / `ID##FDATA` notation. Remote frames (`ID#R`) are refused.
+/// Total: any text gives a frame or a message saying what is wrong, never a panic.
 pub fn parse_frame(s: &str) -> Result<CanFrame, String> {
     let (id, rest) = s
         .split_once('#')
         .ok_or_else(|| format!("no '#' in {s:?}"))?;
+    if id.is_empty() || !id.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err(format!("bad id {id:?}: not hexadecimal digits"));
+    }
     let raw = u32::from_str_radix(id, 16).map_err(|_| format!("bad id {id:?}"))?;
     let can_id = match id.len() {
         3 => CanId::standard(raw as u16),
@@ -60,6 +64,11 @@ pub fn parse_frame(s: &str) -> Result<CanFrame, String> {
     };
     if hex.starts_with('R') {
         return Err("remote frames are not supported".into());
+    }
+    if let Some(bad) = hex.chars().find(|c| !c.is_ascii_hexdigit()) {
+        return Err(format!(
+            "bad data {hex:?}: {bad:?} is not a hexadecimal digit"
+        ));
     }
     if hex.len() % 2 != 0 {
         return Err(format!("odd number of hex digits in {hex:?}"));
@@ -104,8 +113,14 @@ pub fn read_log(path: &Path) -> Result<Vec<Logged>, LinkError> {
     let file =
         File::open(path).map_err(|e| LinkError::io(format!("open {}", path.display()), e))?;
     let mut out = Vec::new();
-    for (n, line) in BufReader::new(file).lines().enumerate() {
+    for (n, line) in BufReader::new(file).split(b'\n').enumerate() {
         let line = line.map_err(|e| LinkError::io(format!("read {}", path.display()), e))?;
+        let line = std::str::from_utf8(&line).map_err(|e| {
+            LinkError::malformed(
+                "candump",
+                format!("{}:{}: not UTF-8 text: {e}", path.display(), n + 1),
+            )
+        })?;
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
@@ -194,6 +209,10 @@ impl<L: Link> Link for RecordingLink<L> {
         Ok(got)
     }
 
+    fn authenticated(&mut self) {
+        self.inner.authenticated()
+    }
+
     fn describe(&self) -> String {
         format!(
             "{} recorded to {}",
@@ -234,6 +253,13 @@ mod tests {
             "123##",
             "123#GG",
             "123#000000000000000000",
+            // Issue 14: a non-ASCII byte in the data used to panic (slicing inside a character).
+            "123#0é",
+            "123#é0",
+            "123##1é",
+            "+12#00",
+            "12 #00",
+            "123#+1",
         ] {
             assert!(parse_frame(bad).is_err(), "{bad}");
         }
@@ -261,5 +287,11 @@ mod tests {
         std::fs::write(&path, "(1.0) can0 123#00\nnot a line\n").unwrap();
         let e = read_log(&path).unwrap_err().to_string();
         assert!(e.contains("bus.log:2"), "{e}");
+        std::fs::write(&path, "(1.0) can0 123#0\u{e9}\n").unwrap();
+        let e = read_log(&path).unwrap_err().to_string();
+        assert!(e.contains("bus.log:1") && e.contains("hexadecimal"), "{e}");
+        std::fs::write(&path, b"(1.0) can0 123#00\n(2.0) can0 123#\xff\xfe\n").unwrap();
+        let e = read_log(&path).unwrap_err().to_string();
+        assert!(e.contains("bus.log:2") && e.contains("UTF-8"), "{e}");
     }
 }
