@@ -58,7 +58,7 @@
 
 use core::fmt;
 
-use aes::Aes128;
+use aes::Aes128Enc;
 use cmac::{Cmac, KeyInit, Mac};
 
 use crate::envelope::{EnvelopeError, PROTOCOL_VERSION};
@@ -201,7 +201,7 @@ impl Freshness {
 /// AES-128-CMAC keyed once: computes and verifies truncated MACs.
 #[derive(Clone)]
 pub struct Authenticator {
-    mac: Cmac<Aes128>,
+    mac: Cmac<Aes128Enc>,
 }
 
 impl fmt::Debug for Authenticator {
@@ -214,11 +214,11 @@ impl Authenticator {
     /// An authenticator with `key` (the AES key schedule and the CMAC subkeys computed once).
     pub fn new(key: &Key) -> Self {
         Self {
-            mac: <Cmac<Aes128> as KeyInit>::new(&key.0.into()),
+            mac: <Cmac<Aes128Enc> as KeyInit>::new(&key.0.into()),
         }
     }
 
-    fn keyed(&self, stream: Stream, body: &[u8], fv: Freshness) -> Cmac<Aes128> {
+    fn keyed(&self, stream: Stream, body: &[u8], fv: Freshness) -> Cmac<Aes128Enc> {
         let mut m = self.mac.clone();
         m.update(&stream.raw_id().to_be_bytes());
         m.update(body);
@@ -882,7 +882,7 @@ mod tests {
              30c81c46a35ce411e5fbc1191a0a52eff69f2445df4f9b17ad2b417be66c3710",
         );
         let mac = |len: usize| {
-            let mut c = <Cmac<Aes128> as KeyInit>::new(&key.0.into());
+            let mut c = <Cmac<Aes128Enc> as KeyInit>::new(&key.0.into());
             c.update(&m[..len]);
             c.finalize().into_bytes().to_vec()
         };
@@ -928,7 +928,7 @@ mod tests {
         let pdu = seal_pdu(&Message::Heartbeat, s, &auth, fv, &mut buf).unwrap();
         let mut input = std::vec![0x01, 0x03, 3, 5];
         input.extend_from_slice(&[1, 2, 3, 4, 0, 0, 1, 5]);
-        let mut c = <Cmac<Aes128> as KeyInit>::new(&KEY.0.into());
+        let mut c = <Cmac<Aes128Enc> as KeyInit>::new(&KEY.0.into());
         c.update(&input);
         let full = c.finalize().into_bytes();
         assert_eq!(pdu, &[3, 5, 0x05, full[0], full[1], full[2], full[3]]);
