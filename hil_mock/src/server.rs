@@ -37,8 +37,8 @@ impl<L: Link + ?Sized> CanBus for LinkBus<'_, L> {
         self.0.recv(Duration::ZERO)
     }
 
-    fn authenticated(&mut self) {
-        self.0.authenticated()
+    fn authenticated(&mut self, fresh: bool) {
+        self.0.authenticated(fresh)
     }
 }
 

@@ -349,24 +349,28 @@ impl<L: Link> RemoteCar<L> {
                 Ok(())
             }
             held => {
-                let held = held.map_or("no snapshot".to_string(), |h| {
-                    format!("only the snapshot of {}", h.status)
-                });
+                let held_generation = held.map_or(0, |h| h.status.generation);
+                let lost = if w.status.session == expected.session {
+                    expected.generation.saturating_sub(w.status.generation)
+                } else {
+                    expected.generation
+                };
                 bail!(
-                    "the car lost what it was taught: it came back holding {} ({}), the host \
-                     expected {} (every correction acknowledged in that session), and holds \
-                     {held}: {} acknowledged corrections would be lost, so the run cannot go \
-                     on bit-identical",
+                    "the car lost what it was taught: it came back holding {} ({}) where the \
+                     host expected {}; {lost} acknowledged corrections are gone from the car, \
+                     and the host holds {}, so restoring it would undo {} of them: the run \
+                     cannot go on bit-identical",
                     w.status,
-                    if self.car_status().is_some_and(|s| s.session.is_none()) {
+                    if w.status.session.is_none() {
                         "its flash was unreadable or erased"
                     } else {
                         "it restored an older state"
                     },
                     expected,
-                    expected
-                        .generation
-                        .saturating_sub(self.held.map_or(0, |h| h.status.generation))
+                    held.map_or("no snapshot of the car's learner".to_string(), |h| {
+                        format!("only the snapshot of {}", h.status)
+                    }),
+                    expected.generation.saturating_sub(held_generation)
                 )
             }
         }
@@ -467,7 +471,6 @@ impl<L: Link> RemoteCar<L> {
                 max_retries: tries.min(u16::MAX as u128) as u16,
             },
         ));
-        self.last = None;
         Ok(())
     }
 
@@ -609,6 +612,7 @@ const MAX_REOBSERVE: u32 = 16;
 impl<L: Link> CarLink for RemoteCar<L> {
     fn restore(&mut self, snapshot: &LearnerSnapshot) -> Result<()> {
         self.restores_in_call = 0;
+        self.last = None;
         self.configure(snapshot)
     }
 

@@ -156,3 +156,86 @@ fn bad_link_arguments_are_clear_errors() {
         assert!(err.contains(why), "{args:?}: {err}");
     }
 }
+
+/// Issue 14, item 3: a car restarted on a flash that lost what it learned used to serve a fresh
+/// learner while `host-sim` finished with exit 0. Now the run stops with a non-zero exit that
+/// names the loss. (The car runs in a thread here; a restart is a new server on the same port
+/// and flash file, with a new epoch.)
+#[test]
+fn run_over_a_link_fails_naming_the_loss_when_the_car_loses_its_flash() {
+    use hil_mock::flash::{HEADER_SIZE, Open, PAGE_SIZE, decode_pages};
+    use std::time::{Duration, Instant};
+    let tmp = tempfile::tempdir().unwrap();
+    let key_file = tmp.path().join("car.key");
+    let key = hil_mock::key::keygen(&key_file).unwrap();
+    let flash = tmp.path().join("car.flash");
+    let serve = |port: u16, epoch: u32, stop: Arc<AtomicBool>| {
+        let (key, flash) = (key.clone(), flash.clone());
+        let mut link =
+            UdpLink::listen(SocketAddrV4::new(Ipv4Addr::LOCALHOST, port)).expect("the port");
+        let SocketAddr::V4(addr) = link.local_addr().unwrap() else {
+            unreachable!("bound on 127.0.0.1")
+        };
+        let handle = std::thread::spawn(move || {
+            let config = CarConfig {
+                mode: FrameMode::Fd,
+                ..CarConfig::default()
+            };
+            let (mut s, _) =
+                Server::with_flash(config, &flash, Open::Existing, &key, epoch).expect("the flash");
+            s.run(&mut link, &stop).unwrap();
+        });
+        (addr, handle)
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let (addr, first) = serve(0, 1, stop.clone());
+    let child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args([
+            "run",
+            "--scenario",
+            "doors",
+            "--steps",
+            "5000",
+            "--seed",
+            "5",
+        ])
+        .arg("--out")
+        .arg(tmp.path().join("out"))
+        .args(["--link", &format!("udp://{addr}"), "--key"])
+        .arg(&key_file)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Once the car has applied three corrections: a power cut that garbles both flash pages.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    loop {
+        let bytes = std::fs::read(&flash).unwrap_or_default();
+        let (_, restored) = decode_pages(&bytes);
+        if restored.is_some_and(|r| r.state.generation >= 3) {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "no three corrections within a minute"
+        );
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    stop.store(true, Ordering::Relaxed);
+    first.join().unwrap();
+    let mut bytes = std::fs::read(&flash).unwrap();
+    for page in 0..2 {
+        bytes[HEADER_SIZE + page * PAGE_SIZE + 40] ^= 0x01;
+    }
+    std::fs::write(&flash, bytes).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let (_, second) = serve(addr.port(), 2, stop.clone());
+    let out = child.wait_with_output().unwrap();
+    stop.store(true, Ordering::Relaxed);
+    second.join().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "host-sim must fail: {err}");
+    assert!(
+        err.contains("the car lost what it was taught") && err.contains("unreadable or erased"),
+        "{err}"
+    );
+}

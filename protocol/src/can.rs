@@ -185,11 +185,14 @@ pub trait CanBus {
     /// The next received frame, if one is waiting.
     fn receive(&mut self) -> Result<Option<CanFrame>, Self::Error>;
 
-    /// The frame received last completed an authenticated, fresh message: a transport that
-    /// has a notion of peers (UDP, a TCP connection) may trust its sender from now on (answer
-    /// it, keep its connection). Called before the answer is transmitted. Does nothing by
+    /// The frame received last completed an authenticated message, called before the answer is
+    /// transmitted. A transport that has a notion of peers (UDP, a TCP connection) answers its
+    /// sender; if the message was also `fresh` (not a hello, which may be replayed by design)
+    /// it may trust that sender from now on (answer it, keep its connection). Does nothing by
     /// default (a bus has no peers).
-    fn authenticated(&mut self) {}
+    fn authenticated(&mut self, fresh: bool) {
+        let _ = fresh;
+    }
 }
 
 #[cfg(test)]

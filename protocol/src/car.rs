@@ -404,7 +404,8 @@ impl CarNode {
             }
             Received::Message(msg) => {
                 let kind = msg.kind();
-                bus.authenticated();
+                // A hello may be a replay (it is answered, never trusted).
+                bus.authenticated(kind != MessageKind::Hello);
                 self.on_message(msg, now_ms, bus, store)?;
                 Ok(Outcome::Accepted(kind))
             }

@@ -6,18 +6,15 @@
 //! on 127.0.0.1, ports ephemeral. No assertion is about time: waits are generous upper bounds on
 //! things that must happen.
 
-use std::io::{BufRead, BufReader};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use std::sync::{Arc, Mutex};
-use std::thread::JoinHandle;
 use std::time::Duration;
 
 use firmware_core::observation::Observation;
-use hil_mock::flash::{FlashStore, HEADER_SIZE, Open, PAGE_SIZE};
-use hil_mock::server::{LinkBus, Server};
+use hil_mock::flash::{FlashStore, HEADER_SIZE, Open, PAGE_SIZE, PageStatus};
+use hil_mock::server::LinkBus;
 use hil_mock::transport::fault::{FaultConfig, FaultyLink};
 use hil_mock::transport::memory::MemoryLink;
 use hil_mock::transport::reconnect::ReconnectingLink;
@@ -25,116 +22,18 @@ use hil_mock::transport::record::{RecordingLink, read_log};
 use hil_mock::transport::slcan::SlcanLink;
 use hil_mock::transport::udp::UdpLink;
 use hil_mock::transport::{Link, LinkAddress};
-use host_sim::experiment::{self, CarLink, RunConfig, RunReport};
-use host_sim::remote::{RemoteCar, RemoteConfig, RemoteStats};
-use protocol::car::{CarConfig, CarStats, Persisted};
+use host_sim::experiment::{self, CarLink, RunConfig};
+use host_sim::remote::{RemoteCar, RemoteConfig};
+use protocol::car::{CarConfig, Persisted};
 use protocol::isotp::FrameMode;
 use protocol::link::{Inbox, Received, transmit};
 use protocol::message::{ActionCommand, ConfigureMessage, Message, ObservationMessage, StopReason};
-use protocol::secure::{HostSecurity, Key};
+use protocol::secure::HostSecurity;
 use protocol::stream::Direction;
 
-const SEED: u64 = 11;
+mod common;
 
-/// The key of every car and host in these tests.
-const KEY: Key = Key::new([0x4B; 16]);
-
-/// Writes [`KEY`] to a key file in `dir` (as `hil_mock keygen` would, with a known key).
-fn key_file(dir: &Path) -> std::path::PathBuf {
-    let path = dir.join("car.key");
-    let mut text = KEY.to_hex().to_vec();
-    text.push(b'\n');
-    std::fs::write(&path, text).unwrap();
-    path
-}
-
-fn config(steps: u32) -> RunConfig {
-    let scenario = host_sim::registry::load_scenario("doors").unwrap();
-    RunConfig {
-        steps,
-        seed: SEED,
-        ..RunConfig::new(Arc::new(scenario))
-    }
-}
-
-fn remote_config(mode: FrameMode) -> RemoteConfig {
-    RemoteConfig {
-        mode,
-        try_timeout: Duration::from_millis(3),
-        deadline: Duration::from_secs(30),
-        ..RemoteConfig::new(KEY)
-    }
-}
-
-/// A `CarNode` serving `link` in a thread until stopped; gives back its counters.
-struct ServerThread {
-    stop: Arc<AtomicBool>,
-    handle: JoinHandle<CarStats>,
-}
-
-impl ServerThread {
-    fn spawn<L: Link + 'static>(open: impl FnOnce() -> L + Send + 'static, car: CarConfig) -> Self {
-        let stop = Arc::new(AtomicBool::new(false));
-        let flag = stop.clone();
-        let handle = std::thread::spawn(move || {
-            let mut link = open();
-            let mut server = Server::in_memory(car, &KEY, 7);
-            match server.run(&mut link, &flag) {
-                // The host hung up (a memory link's other end dropped): the end of the test.
-                Ok(()) | Err(hil_mock::transport::LinkError::Closed(_)) => {}
-                Err(e) => panic!("the server's link: {e}"),
-            }
-            server.node().stats()
-        });
-        Self { stop, handle }
-    }
-
-    fn stop(self) -> CarStats {
-        self.stop.store(true, Ordering::Relaxed);
-        self.handle.join().expect("the server thread")
-    }
-}
-
-fn car(mode: FrameMode) -> CarConfig {
-    CarConfig {
-        mode,
-        ..CarConfig::default()
-    }
-}
-
-fn remote_run<L: Link>(config: &RunConfig, link: L, mode: FrameMode) -> (RunReport, RemoteStats) {
-    let mut remote = RemoteCar::new(link, remote_config(mode));
-    let report = experiment::run_with(config, &mut remote, &mut |_| {}).unwrap();
-    (report, remote.stats())
-}
-
-#[track_caller]
-fn assert_same(a: &RunReport, b: &RunReport, what: &str) {
-    assert!(
-        a.csv_bytes() == b.csv_bytes(),
-        "{what}: per-step CSV differs"
-    );
-    assert_eq!(
-        tests::weight_bits(&a.final_snapshot.state.iterate),
-        tests::weight_bits(&b.final_snapshot.state.iterate),
-        "{what}: final iterate"
-    );
-    assert_eq!(
-        tests::weight_bits(&a.final_snapshot.state.average),
-        tests::weight_bits(&b.final_snapshot.state.average),
-        "{what}: final weights"
-    );
-    assert_eq!(a.final_snapshot, b.final_snapshot, "{what}: final snapshot");
-}
-
-fn udp_pair() -> (UdpLink, UdpLink) {
-    let car = UdpLink::listen(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0)).unwrap();
-    let SocketAddr::V4(addr) = car.local_addr().unwrap() else {
-        unreachable!("bound on 127.0.0.1")
-    };
-    let host = UdpLink::connect(addr).unwrap();
-    (host, car)
-}
+use common::*;
 
 #[test]
 fn same_seed_same_bits_in_process_over_memory_udp_and_slcan() {
@@ -251,132 +150,6 @@ fn faults_both_ways_lose_no_feedback_and_apply_none_twice() {
             stats.errors > 0,
             "the car reported lost messages: {stats:?}"
         );
-    }
-}
-
-/// The `hil_mock` program as a child process, serving with a flash file and [`KEY`].
-struct Child9 {
-    child: Child,
-    port: u16,
-    stderr: Arc<Mutex<String>>,
-    reader: Option<JoinHandle<()>>,
-}
-
-fn spawn_server(flash: &Path, port: u16) -> Child9 {
-    spawn_server_on(flash, "udp-listen", port)
-}
-
-/// The same, listening with `scheme` (`udp-listen`, `slcan+tcp-listen`).
-fn spawn_server_on(flash: &Path, scheme: &str, port: u16) -> Child9 {
-    let key = key_file(flash.parent().expect("the flash file is in a folder"));
-    let mut child = Command::new(env!("CARGO_BIN_EXE_hil_mock_server"))
-        .args(["serve", "--link"])
-        .arg(format!("{scheme}://127.0.0.1:{port}"))
-        .arg("--key")
-        .arg(key)
-        .arg("--flash")
-        .arg(flash)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start hil_mock");
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let port = line
-        .trim()
-        .rsplit(':')
-        .next()
-        .and_then(|p| p.parse().ok())
-        .unwrap_or_else(|| panic!("hil_mock said {line:?}"));
-    let stderr = Arc::new(Mutex::new(String::new()));
-    let sink = stderr.clone();
-    let err = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        for l in BufReader::new(err).lines().map_while(Result::ok) {
-            sink.lock().unwrap().push_str(&(l + "\n"));
-        }
-    });
-    Child9 {
-        child,
-        port,
-        stderr,
-        reader: Some(reader),
-    }
-}
-
-impl Child9 {
-    /// The child's stderr so far, once `ready` holds for it (or after 30 s).
-    fn stderr_when(&self, ready: impl Fn(&str) -> bool) -> String {
-        for _ in 0..30_000 {
-            let log = self.stderr.lock().unwrap().clone();
-            if ready(&log) {
-                return log;
-            }
-            std::thread::sleep(Duration::from_millis(1));
-        }
-        self.stderr.lock().unwrap().clone()
-    }
-
-    fn kill9(&mut self) {
-        // `Child::kill` is SIGKILL on Unix.
-        self.child.kill().unwrap();
-        self.child.wait().unwrap();
-        // Its stderr is complete once the reader has seen the end of the pipe.
-        if let Some(r) = self.reader.take() {
-            let _ = r.join();
-        }
-    }
-}
-
-impl Drop for Child9 {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// Waits until `ready` (the supervisor restarted the server); a generous bound turns a stuck
-/// supervisor into a failure instead of a hang.
-fn wait_for(ready: impl Fn() -> bool) {
-    for _ in 0..60_000 {
-        if ready() {
-            return;
-        }
-        std::thread::sleep(Duration::from_millis(1));
-    }
-    panic!("the supervisor did not restart hil_mock within a minute");
-}
-
-/// A [`CarLink`] that has the car killed (and restarted) before some feedbacks.
-struct KillBeforeFeedback<'a, C: CarLink> {
-    inner: C,
-    feedbacks: u32,
-    at: &'a [u32],
-    kill: &'a dyn Fn(bool),
-}
-
-impl<C: CarLink> CarLink for KillBeforeFeedback<'_, C> {
-    fn restore(&mut self, snapshot: &firmware_core::LearnerSnapshot) -> anyhow::Result<()> {
-        self.inner.restore(snapshot)
-    }
-    fn act(
-        &mut self,
-        tick: u32,
-        obs: &Observation,
-    ) -> anyhow::Result<firmware_core::agent::Decision> {
-        self.inner.act(tick, obs)
-    }
-    fn feedback(&mut self, tick: u32, feedback: &firmware_core::Feedback) -> anyhow::Result<()> {
-        self.feedbacks += 1;
-        if self.at.contains(&self.feedbacks) {
-            (self.kill)(true);
-        }
-        self.inner.feedback(tick, feedback)
-    }
-    fn snapshot(&mut self) -> anyhow::Result<firmware_core::LearnerSnapshot> {
-        self.inner.snapshot()
     }
 }
 
@@ -679,5 +452,118 @@ fn run_link_addresses_are_checked() {
         "udp://127.0.0.1",
     ] {
         assert!(bad.parse::<LinkAddress>().is_err(), "{bad}");
+    }
+}
+
+/// Which flash pages a restart finds corrupted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Corrupt {
+    /// Both: the car comes back without a configured learner.
+    Both,
+    /// The newest good one: the car comes back with the state before its last write.
+    Newest,
+}
+
+/// Flips a byte in the payload of the pages `which` names.
+fn corrupt(flash: &Path, which: Corrupt) {
+    let mut bytes = std::fs::read(flash).unwrap();
+    let (pages, _) = hil_mock::flash::decode_pages(&bytes);
+    let newest = pages
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| match p {
+            PageStatus::Good(g) => Some((*g, i)),
+            _ => None,
+        })
+        .max()
+        .map(|(_, i)| i);
+    for i in 0..2 {
+        if which == Corrupt::Both || Some(i) == newest {
+            bytes[HEADER_SIZE + i * PAGE_SIZE + 40] ^= 0x01;
+        }
+    }
+    std::fs::write(flash, bytes).unwrap();
+}
+
+/// A run with `hil_mock` (a child process) killed with SIGKILL before feedback number
+/// `before_feedback`, its flash corrupted as `which` says, and restarted on the same port and
+/// flash file.
+fn run_with_a_lossy_restart(
+    config: &RunConfig,
+    before_feedback: u32,
+    which: Corrupt,
+) -> (
+    anyhow::Result<experiment::RunReport>,
+    host_sim::remote::RemoteStats,
+    String,
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("car.flash");
+    let server = std::sync::Mutex::new(spawn_server(&flash, 0));
+    let port = server.lock().unwrap().port;
+    let host = UdpLink::connect(SocketAddrV4::new(Ipv4Addr::LOCALHOST, port)).unwrap();
+    let log = std::sync::Mutex::new(String::new());
+    let kill = |_: bool| {
+        let mut s = server.lock().unwrap();
+        s.kill9();
+        log.lock().unwrap().push_str(&s.stderr.lock().unwrap());
+        corrupt(&flash, which);
+        *s = spawn_server(&flash, port);
+    };
+    let mut car = KillBeforeFeedback {
+        inner: RemoteCar::new(host, remote_config(FrameMode::Fd)),
+        feedbacks: 0,
+        at: &[before_feedback],
+        kill: &kill,
+    };
+    let result = experiment::run_with(config, &mut car, &mut |_| {});
+    let stats = car.inner.stats();
+    let mut s = server.lock().unwrap();
+    s.kill9();
+    log.lock().unwrap().push_str(&s.stderr.lock().unwrap());
+    let log = log.lock().unwrap().clone();
+    (result, stats, log)
+}
+
+/// Issue 14, item 4: a car that comes back without its state before it was taught anything is
+/// configured again with the host's snapshot, and the run ends bit-identical.
+#[test]
+fn a_flash_lost_before_any_correction_is_restored_and_the_run_stays_bit_identical() {
+    let config = config(300);
+    let local = experiment::run(&config).unwrap();
+    let (report, stats, log) = run_with_a_lossy_restart(&config, 1, Corrupt::Both);
+    let report = report.unwrap_or_else(|e| panic!("{e:#}\n{log}"));
+    assert!(log.contains("no configured learner"), "{log}");
+    assert_eq!((stats.car_restarts, stats.restores), (1, 1), "{stats:?}");
+    assert_same(&local, &report, "restored after a lost flash");
+}
+
+/// Issue 14, item 4: a car that comes back having lost acknowledged corrections (both pages
+/// unreadable, or the newest) is not driven on silently: the run fails, naming the loss.
+#[test]
+fn a_flash_lost_after_corrections_stops_the_run_naming_the_loss() {
+    let config = config(300);
+    for (which, gone, cause) in [
+        (
+            Corrupt::Both,
+            "3 acknowledged corrections are gone",
+            "unreadable or erased",
+        ),
+        (
+            Corrupt::Newest,
+            "1 acknowledged corrections are gone",
+            "an older state",
+        ),
+    ] {
+        let (report, stats, log) = run_with_a_lossy_restart(&config, 4, which);
+        let e = format!("{:#}", report.expect_err("the run must not go on"));
+        eprintln!("{which:?}: {e}\n{stats:?}");
+        assert!(e.contains("the car lost what it was taught"), "{e}");
+        assert!(
+            e.contains(gone) && e.contains(cause),
+            "{which:?}: {e}\n{log}"
+        );
+        assert!(e.contains("undo 3 of them"), "{e}");
+        assert_eq!(stats.restores, 0);
     }
 }

@@ -241,8 +241,8 @@ impl<L: Link> Link for FaultyLink<L> {
         }
     }
 
-    fn authenticated(&mut self) {
-        self.inner.authenticated()
+    fn authenticated(&mut self, fresh: bool) {
+        self.inner.authenticated(fresh)
     }
 
     fn describe(&self) -> String {

@@ -99,10 +99,13 @@ pub trait Link: Send {
     /// A short description for logs ("udp 127.0.0.1:4000", ...).
     fn describe(&self) -> String;
 
-    /// The frame received last completed an authenticated, fresh message
-    /// (`protocol::can::CanBus::authenticated`): a transport with peers trusts its sender from
-    /// now on (UDP answers it; a TCP listener keeps its connection). Nothing by default.
-    fn authenticated(&mut self) {}
+    /// The frame received last completed an authenticated message
+    /// (`protocol::can::CanBus::authenticated`): a transport with peers answers its sender, and
+    /// if the message was `fresh` trusts it from now on (UDP answers it; a TCP listener keeps
+    /// its connection). Nothing by default.
+    fn authenticated(&mut self, fresh: bool) {
+        let _ = fresh;
+    }
 }
 
 impl<L: Link + ?Sized> Link for Box<L> {
@@ -115,8 +118,8 @@ impl<L: Link + ?Sized> Link for Box<L> {
     fn describe(&self) -> String {
         (**self).describe()
     }
-    fn authenticated(&mut self) {
-        (**self).authenticated()
+    fn authenticated(&mut self, fresh: bool) {
+        (**self).authenticated(fresh)
     }
 }
 

@@ -117,9 +117,9 @@ impl Link for ReconnectingLink {
         }
     }
 
-    fn authenticated(&mut self) {
+    fn authenticated(&mut self, fresh: bool) {
         if let Some(link) = self.inner.as_mut() {
-            link.authenticated();
+            link.authenticated(fresh);
         }
     }
 

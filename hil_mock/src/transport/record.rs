@@ -209,8 +209,8 @@ impl<L: Link> Link for RecordingLink<L> {
         Ok(got)
     }
 
-    fn authenticated(&mut self) {
-        self.inner.authenticated()
+    fn authenticated(&mut self, fresh: bool) {
+        self.inner.authenticated(fresh)
     }
 
     fn describe(&self) -> String {

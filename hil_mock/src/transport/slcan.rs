@@ -456,8 +456,11 @@ impl Link for SlcanListener {
         )
     }
 
-    fn authenticated(&mut self) {
-        self.trusted_at = Instant::now();
+    fn authenticated(&mut self, fresh: bool) {
+        // A replayed hello must not keep a squatter's connection alive.
+        if fresh {
+            self.trusted_at = Instant::now();
+        }
     }
 }
 
@@ -597,7 +600,7 @@ mod tests {
         let got = car.recv(Duration::from_secs(5)).unwrap();
         assert_eq!(got, Some(frame(1)));
         assert_eq!((car.accepted(), car.idle_closed()), (2, 1));
-        car.authenticated();
+        car.authenticated(true);
         car.send(&frame(2)).unwrap();
         assert_eq!(host.recv(Duration::from_secs(5)).unwrap(), Some(frame(2)));
         drop(squatter);

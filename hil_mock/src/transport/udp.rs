@@ -19,11 +19,12 @@
 //! skipped; a packet that is truncated or inconsistent is reported as malformed and dropped whole.
 //!
 //! **Whom a listening link answers.** Anyone on 127.0.0.1 can send it a datagram. A listening
-//! link answers only the sender of the last packet that completed an *authenticated* message
-//! ([`Link::authenticated`], called by the car's node after the MAC and freshness checks):
-//! garbage, forgeries and replays from another port never redirect its answers. Before the
-//! first authenticated message it answers nobody (its frames are dropped, as on a bus without a
-//! listener).
+//! link answers only the sender of the last packet that completed an *authenticated, fresh*
+//! message ([`Link::authenticated`], called by the car's node after the MAC and freshness
+//! checks): garbage, forgeries and replays from another port never redirect its answers. The
+//! answer to a hello (authenticated but replayable) goes to the hello's sender alone, without
+//! trusting it. Before the first authenticated message it answers nobody (its frames are
+//! dropped, as on a bus without a listener).
 
 use std::collections::VecDeque;
 use std::io::ErrorKind;
@@ -157,9 +158,12 @@ const NAP: Duration = Duration::from_micros(50);
 #[derive(Debug)]
 pub struct UdpLink {
     socket: UdpSocket,
-    /// Where frames go: the remote (connected), or the sender of the last authenticated message
-    /// (listening).
+    /// Where frames go: the remote (connected), or the sender of the last authenticated, fresh
+    /// message (listening).
     peer: Option<SocketAddr>,
+    /// Listening: where the answer to the frame received last goes, when it is not `peer` (the
+    /// sender of a hello); cleared by the next receive.
+    answer_to: Option<SocketAddr>,
     connected: bool,
     seq: u8,
     /// Received frames with the address they came from.
@@ -196,6 +200,7 @@ impl UdpLink {
             connected,
             seq: 0,
             pending: VecDeque::new(),
+            answer_to: None,
             last_from: None,
             unanswered: 0,
             buf: vec![0; MAX_DATAGRAM],
@@ -228,7 +233,7 @@ impl Link for UdpLink {
         let result = if self.connected {
             self.socket.send(&packet)
         } else {
-            let Some(peer) = self.peer else {
+            let Some(peer) = self.answer_to.or(self.peer) else {
                 self.unanswered += 1;
                 return Ok(());
             };
@@ -238,6 +243,7 @@ impl Link for UdpLink {
     }
 
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        self.answer_to = None;
         let deadline = Instant::now() + timeout;
         loop {
             if let Some((f, from)) = self.pending.pop_front() {
@@ -294,9 +300,14 @@ impl Link for UdpLink {
         }
     }
 
-    fn authenticated(&mut self) {
-        if !self.connected && self.last_from.is_some() {
+    fn authenticated(&mut self, fresh: bool) {
+        if self.connected || self.last_from.is_none() {
+            return;
+        }
+        if fresh {
             self.peer = self.last_from;
+        } else {
+            self.answer_to = self.last_from;
         }
     }
 
@@ -430,7 +441,7 @@ mod tests {
             assert_eq!(server.recv(Duration::from_secs(2)).unwrap(), Some(f));
         }
         assert_eq!(server.peer(), None, "receiving alone trusts nobody");
-        server.authenticated();
+        server.authenticated(true);
         server.send(&frames()[1]).unwrap();
         assert_eq!(
             client.recv(Duration::from_secs(2)).unwrap(),
@@ -449,7 +460,7 @@ mod tests {
         let mut stranger = UdpLink::connect(addr).unwrap();
         host.send(&frames()[0]).unwrap();
         assert!(server.recv(Duration::from_secs(2)).unwrap().is_some());
-        server.authenticated();
+        server.authenticated(true);
         // The stranger's packet arrives (garbage or a forgery: never authenticated).
         stranger.send(&frames()[1]).unwrap();
         assert!(server.recv(Duration::from_secs(2)).unwrap().is_some());
