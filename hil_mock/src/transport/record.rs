@@ -107,43 +107,44 @@ pub struct Logged {
     pub frame: CanFrame,
 }
 
+/// Parses one line of a candump log, `(TIME) IFACE FRAME`. Total: any text gives a frame or a
+/// message saying what is wrong, never a panic.
+pub fn parse_line(line: &str) -> Result<Logged, String> {
+    let mut parts = line.split_whitespace();
+    let (Some(time), Some(iface), Some(frame)) = (parts.next(), parts.next(), parts.next()) else {
+        return Err("expected '(TIME) IFACE FRAME'".into());
+    };
+    let time: f64 = time
+        .strip_prefix('(')
+        .and_then(|t| t.strip_suffix(')'))
+        .and_then(|t| t.parse().ok())
+        .filter(|t: &f64| t.is_finite())
+        .ok_or_else(|| format!("bad timestamp {time:?}"))?;
+    let frame = parse_frame(frame)?;
+    Ok(Logged {
+        time,
+        iface: iface.to_string(),
+        frame,
+    })
+}
+
 /// Reads a candump log. Blank lines and lines starting with `#` are skipped; any other line that
-/// does not parse is an error naming the file and the line.
+/// does not parse (bytes that are not UTF-8 included) is an error naming the file and the line.
 pub fn read_log(path: &Path) -> Result<Vec<Logged>, LinkError> {
     let file =
         File::open(path).map_err(|e| LinkError::io(format!("open {}", path.display()), e))?;
     let mut out = Vec::new();
     for (n, line) in BufReader::new(file).split(b'\n').enumerate() {
         let line = line.map_err(|e| LinkError::io(format!("read {}", path.display()), e))?;
-        let line = std::str::from_utf8(&line).map_err(|e| {
-            LinkError::malformed(
-                "candump",
-                format!("{}:{}: not UTF-8 text: {e}", path.display(), n + 1),
-            )
-        })?;
+        let bad = |d: String| {
+            LinkError::malformed("candump", format!("{}:{}: {d}", path.display(), n + 1))
+        };
+        let line = std::str::from_utf8(&line).map_err(|e| bad(format!("not UTF-8 text: {e}")))?;
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
-        let bad = |d: String| {
-            LinkError::malformed("candump", format!("{}:{}: {d}", path.display(), n + 1))
-        };
-        let mut parts = line.split_whitespace();
-        let (Some(time), Some(iface), Some(frame)) = (parts.next(), parts.next(), parts.next())
-        else {
-            return Err(bad("expected '(TIME) IFACE FRAME'".into()));
-        };
-        let time: f64 = time
-            .strip_prefix('(')
-            .and_then(|t| t.strip_suffix(')'))
-            .and_then(|t| t.parse().ok())
-            .ok_or_else(|| bad(format!("bad timestamp {time:?}")))?;
-        let frame = parse_frame(frame).map_err(bad)?;
-        out.push(Logged {
-            time,
-            iface: iface.to_string(),
-            frame,
-        });
+        out.push(parse_line(line).map_err(bad)?);
     }
     Ok(out)
 }
@@ -155,7 +156,12 @@ pub fn replay(log: &[Logged], link: &mut dyn Link, realtime: bool) -> Result<usi
     let t0 = log.first().map(|l| l.time).unwrap_or(0.0);
     for l in log {
         if realtime {
-            let at = Duration::from_secs_f64((l.time - t0).max(0.0));
+            let at = Duration::try_from_secs_f64((l.time - t0).max(0.0)).map_err(|_| {
+                LinkError::malformed(
+                    "candump",
+                    format!("timestamp {} is too far from the first, {t0}", l.time),
+                )
+            })?;
             if let Some(wait) = at.checked_sub(start.elapsed()) {
                 std::thread::sleep(wait);
             }
