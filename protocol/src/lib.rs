@@ -4,9 +4,9 @@
 //! a compile-time constant checked against the largest message.
 //!
 //! ```text
-//!  Message ──emit──▶ envelope [version | postcard | CRC-16] ──Segmenter──▶ CAN frames (SF/FF/CF)
-//!                                                                            │ bus, id per stream
-//!  Message ◀─parse── envelope ◀────────── Reassembler (one per stream) ◀─────┘
+//!  Message ──seal──▶ secured PDU [version | postcard | freshness | MAC] ──Segmenter──▶ CAN frames
+//!                                                                                    │ bus, id per stream
+//!  Message ◀─open─── MAC, freshness, decode ◀────── Reassembler (one per stream) ◀───┘
 //! ```
 //!
 //! * [`message`]: the messages (observation, action command, feedback, ack/nack, heartbeat,

@@ -32,8 +32,8 @@
 //! # Synchronisation: hello and welcome
 //!
 //! The host learns the car's epoch and counters from a handshake: it sends
-//! [`Hello`](crate::message::Hello) with a fresh random nonce, the epoch it believes the car is
-//! in and its own next counter; the car answers [`Welcome`](crate::message::Welcome) with the
+//! [`Hello`] with a fresh random nonce, the epoch it believes the car is
+//! in and its own next counter; the car answers [`Welcome`] with the
 //! nonce, its epoch, the counter of the welcome itself, the next host counter it accepts and its
 //! status. The hello is authenticated under the fixed freshness value 0 (epoch 0 is never a
 //! car's), so it can be replayed: its only effect is a welcome, and moving the car's window
