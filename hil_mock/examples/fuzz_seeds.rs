@@ -58,7 +58,11 @@ fn main() -> anyhow::Result<()> {
     let flash_dir = dir("flash_page")?;
     let tmp = tempfile::tempdir()?;
     let path = tmp.path().join("car.flash");
-    let mut learner = Learner::new(LearnerParams::default().check().map_err(anyhow::Error::msg)?);
+    let mut learner = Learner::new(
+        LearnerParams::default()
+            .check()
+            .map_err(anyhow::Error::msg)?,
+    );
     let (mut store, _) = FlashStore::open(&path, Open::Existing)?;
     std::fs::write(flash_dir.join("erased.bin"), std::fs::read(&path)?)?;
     for generation in 0..2u32 {

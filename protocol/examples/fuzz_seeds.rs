@@ -21,12 +21,12 @@ use firmware_core::{
 };
 use protocol::can::{CanFrame, FD_LENGTHS};
 use protocol::isotp::{FrameMode, Segmenter};
-use protocol::secure::{CarSecurity, Endpoint, HostSecurity, Key};
 use protocol::message::{
     ActionCommand, CarStatus, ConfigureMessage, DeliveryId, ErrorCode, ErrorReport,
     FeedbackMessage, Hello, MAX_MESSAGE_SIZE, Message, ObservationMessage, StopReason,
     WeightsReport, Welcome,
 };
+use protocol::secure::{CarSecurity, Endpoint, HostSecurity, Key};
 use protocol::stream::{Direction, Stream};
 
 fn a(i: usize) -> ActionIndex {
@@ -197,7 +197,9 @@ fn secured(msg: &Message) -> Vec<u8> {
     let stream = stream_of(msg);
     let mut buf = [0u8; MAX_MESSAGE_SIZE];
     let bytes = match stream.direction {
-        Direction::HostToCar => HostSecurity::assume_fresh_car(&KEY, EPOCH).seal(msg, stream, &mut buf),
+        Direction::HostToCar => {
+            HostSecurity::assume_fresh_car(&KEY, EPOCH).seal(msg, stream, &mut buf)
+        }
         Direction::CarToHost => CarSecurity::new(&KEY, EPOCH).seal(msg, stream, &mut buf),
     };
     bytes.expect("fits").to_vec()
@@ -256,7 +258,13 @@ fn main() -> std::io::Result<()> {
         }
     }
     // An observation interleaved with a heartbeat and a feedback, one frame lost, a late frame.
-    let named = |n: &str| &msgs.iter().find(|(k, _)| *k == n).expect("a seed message").1;
+    let named = |n: &str| {
+        &msgs
+            .iter()
+            .find(|(k, _)| *k == n)
+            .expect("a seed message")
+            .1
+    };
     let obs = frames(named("observation_open"), FrameMode::Classic);
     let hb = frames(named("heartbeat"), FrameMode::Classic);
     let fb = frames(named("feedback_action"), FrameMode::Classic);
@@ -327,7 +335,11 @@ fn main() -> std::io::Result<()> {
             }
         }
     }
-    lines.extend([b"C\rS8\rO\rV\r".to_vec(), b"z\r\r\x07".to_vec(), b"t12\rT1ABCDEF0\r".to_vec()]);
+    lines.extend([
+        b"C\rS8\rO\rV\r".to_vec(),
+        b"z\r\r\x07".to_vec(),
+        b"t12\rT1ABCDEF0\r".to_vec(),
+    ]);
     for (i, l) in lines.iter().enumerate() {
         std::fs::write(slcan_dir.join(format!("line_{i:02}.bin")), l)?;
         count += 1;

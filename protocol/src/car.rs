@@ -1341,6 +1341,9 @@ mod tests {
     enum Step {
         /// The current session's sender gives feedback about a new tick (observed first).
         Give,
+        /// The sender of an earlier session (a host that missed the new configuration) gives
+        /// feedback about a new tick: never applied.
+        GiveStale,
         /// Time passes; senders retransmit what is due.
         Wait(u32),
         /// A new configuration (the next session, a new sender).
@@ -1352,6 +1355,7 @@ mod tests {
     fn step() -> impl Strategy<Value = Step> {
         prop_oneof![
             6 => Just(Step::Give),
+            2 => Just(Step::GiveStale),
             6 => (1u32..30).prop_map(Step::Wait),
             1 => Just(Step::Configure),
             1 => Just(Step::Restart),
@@ -1370,6 +1374,8 @@ mod tests {
         roll: usize,
         /// Applications of each delivery `(session, seq, tick)`.
         applied: std::collections::HashMap<(u8, u8, u32), u32>,
+        /// Deliveries applied while the car was configured in another session.
+        foreign: Vec<(u8, u8, u32)>,
         delivered: Vec<(u8, u8, u32)>,
         refused: Vec<(u8, u8, u32, NackCode)>,
     }
@@ -1390,10 +1396,11 @@ mod tests {
                 let before = self.b.car.stats().feedback_applied;
                 let answers = self.b.send(&Message::Feedback(m), self.now);
                 if self.b.car.stats().feedback_applied > before {
-                    *self
-                        .applied
-                        .entry((m.id.session, m.id.seq, m.tick))
-                        .or_default() += 1;
+                    let id = (m.id.session, m.id.seq, m.tick);
+                    *self.applied.entry(id).or_default() += 1;
+                    if self.b.car.session() != Some(m.id.session) {
+                        self.foreign.push(id);
+                    }
                 }
                 for a in answers {
                     if self.next_roll() < 15 {
@@ -1423,14 +1430,20 @@ mod tests {
 
         fn run(&mut self, s: &Step) {
             match s {
-                Step::Give => {
+                Step::Give | Step::GiveStale => {
                     self.tick += 1;
                     self.b.observe(self.tick, self.now);
                     let tick = self.tick;
                     let fb = Feedback::Action(ActionFeedback {
                         action: ActionIndex::new(tick as usize % 64).unwrap(),
                     });
-                    if let Some(sender) = self.senders.last_mut()
+                    let n = self.senders.len();
+                    let k = match s {
+                        Step::GiveStale if n >= 2 => n - 2,
+                        Step::GiveStale => return,
+                        _ => n.wrapping_sub(1),
+                    };
+                    if let Some(sender) = self.senders.get_mut(k)
                         && let Ok(m) = sender.send(self.now, tick, fb)
                     {
                         self.transmit(m);
@@ -1490,6 +1503,7 @@ mod tests {
                 rolls,
                 roll: 0,
                 applied: Default::default(),
+                foreign: Vec::new(),
                 delivered: Vec::new(),
                 refused: Vec::new(),
             };
@@ -1500,6 +1514,7 @@ mod tests {
             for (f, n) in &w.applied {
                 prop_assert!(*n == 1, "{:?} applied {} times", f, n);
             }
+            prop_assert!(w.foreign.is_empty(), "applied in another session: {:?}", w.foreign);
             for f in &w.delivered {
                 prop_assert_eq!(w.applied.get(f), Some(&1), "delivered {:?}", f);
             }
