@@ -187,9 +187,10 @@ pub trait CanBus {
 
     /// The frame received last completed an authenticated message, called before the answer is
     /// transmitted. A transport that has a notion of peers (UDP, a TCP connection) answers its
-    /// sender; if the message was also `fresh` (not a hello, which may be replayed by design)
-    /// it may trust that sender from now on (answer it, keep its connection). Does nothing by
-    /// default (a bus has no peers).
+    /// sender; if the message was also `fresh` (it carried the highest counter yet: not a hello,
+    /// which may be replayed by design, nor a late message, which another node may have
+    /// recorded and replayed) it may trust that sender from now on (answer it, keep its
+    /// connection). Does nothing by default (a bus has no peers).
     fn authenticated(&mut self, fresh: bool) {
         let _ = fresh;
     }

@@ -404,8 +404,9 @@ impl CarNode {
             }
             Received::Message(msg) => {
                 let kind = msg.kind();
-                // A hello may be a replay (it is answered, never trusted).
-                bus.authenticated(kind != MessageKind::Hello);
+                // Trusted: the newest host message (a hello may be a replay, and a late message
+                // may be a genuine one another node recorded and replays).
+                bus.authenticated(self.security.opened_newest());
                 self.on_message(msg, now_ms, bus, store)?;
                 Ok(Outcome::Accepted(kind))
             }

@@ -550,6 +550,8 @@ pub struct CarSecurity {
     next_tx: Option<u32>,
     rx: ReplayWindow,
     refused: RefusalStats,
+    /// The message opened last carried the highest host counter yet.
+    newest: bool,
 }
 
 impl Default for CarSecurity {
@@ -567,6 +569,7 @@ impl CarSecurity {
             next_tx: Some(0),
             rx: ReplayWindow::new(),
             refused: RefusalStats::ZERO,
+            newest: false,
         }
     }
 
@@ -609,6 +612,15 @@ impl CarSecurity {
     /// Refused PDUs so far.
     pub const fn refusals(&self) -> RefusalStats {
         self.refused
+    }
+
+    /// Whether the message opened last carried a host counter above every one accepted before
+    /// (not a hello, not a reordered or delayed message). Only such a message can have come
+    /// first from the host itself: a genuine message that was lost on the way and is replayed
+    /// later by another node is accepted once (it was never seen), but is not the newest, so a
+    /// transport does not start trusting the replayer's address for it.
+    pub const fn opened_newest(&self) -> bool {
+        self.newest
     }
 
     /// Takes an authenticated hello: a host that reached a later counter in this epoch than the
@@ -671,6 +683,7 @@ impl Endpoint for CarSecurity {
     }
 
     fn open(&mut self, stream: Stream, pdu: &[u8]) -> Result<Message, OpenError> {
+        self.newest = false;
         let pdu = SecuredPdu::new_checked(pdu)?;
         let msg = pdu.message()?;
         let Some(auth) = &self.auth else {
@@ -695,6 +708,7 @@ impl Endpoint for CarSecurity {
         if let Err(r) = self.rx.check(counter) {
             return Err(self.refuse(r));
         }
+        self.newest = self.rx.highest().is_none_or(|h| counter > h);
         self.rx.accept(counter);
         Ok(msg)
     }
@@ -1032,6 +1046,14 @@ mod tests {
         );
         let r = car.refusals();
         assert_eq!((r.replayed, r.mac, r.total()), (1, 3, 4));
+        // A message that never arrived, delivered late (by anyone): accepted once, not the
+        // newest.
+        let late = sealed(&mut host, &Message::Reset, to_car);
+        let later = sealed(&mut host, &Message::Reset, to_car);
+        assert_eq!(car.open(to_car, &later), Ok(Message::Reset));
+        assert!(car.opened_newest());
+        assert_eq!(car.open(to_car, &late), Ok(Message::Reset));
+        assert!(!car.opened_newest());
         // A restarted car (new epoch) refuses what the host sends in the old one.
         let mut restarted = CarSecurity::new(&KEY, 78);
         let reset3 = sealed(&mut host, &Message::Reset, to_car);

@@ -12,8 +12,8 @@
 //! Both roles send and receive frames as `t`/`T`/`b`/`B` lines.
 //!
 //! A car listening on TCP ([`SlcanListener`], `slcan+tcp-listen://`) serves connections one
-//! after another, one at a time. A connection that brings no authenticated message for the
-//! idle timeout is closed and the next one waiting is accepted, so a process that connects
+//! after another, one at a time. A connection that brings no authenticated message with the
+//! highest counter yet for the idle timeout is closed and the next one waiting is accepted, so a process that connects
 //! first and stays (silent, or sending garbage or replays) cannot lock the host out; when a
 //! connection ends, the car serves the next.
 

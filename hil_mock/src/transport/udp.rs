@@ -19,11 +19,12 @@
 //! skipped; a packet that is truncated or inconsistent is reported as malformed and dropped whole.
 //!
 //! **Whom a listening link answers.** Anyone on 127.0.0.1 can send it a datagram. A listening
-//! link answers only the sender of the last packet that completed an *authenticated, fresh*
-//! message ([`Link::authenticated`], called by the car's node after the MAC and freshness
-//! checks): garbage, forgeries and replays from another port never redirect its answers. The
-//! answer to a hello (authenticated but replayable) goes to the hello's sender alone, without
-//! trusting it. Before the first authenticated message it answers nobody (its frames are
+//! link answers only the sender of the last packet that completed an authenticated message with
+//! the highest counter yet ([`Link::authenticated`], called by the car's node after the MAC and
+//! freshness checks): garbage, forgeries and replays from another port never redirect its
+//! answers, nor does a genuine message that was lost and is replayed late by another node. The
+//! answer to a hello (authenticated but replayable) or to such a late message goes to its
+//! sender alone, without trusting it. Before the first authenticated message it answers nobody (its frames are
 //! dropped, as on a bus without a listener).
 
 use std::collections::VecDeque;
