@@ -139,6 +139,11 @@ impl SlcanLink<Box<dyn Stream>> {
                 Err(e) => return Err(LinkError::io(format!("accept on {local}"), e)),
             }
         };
+        Self::device(stream, local)
+    }
+
+    /// The device's side of an accepted connection (blocking reads with timeouts, no Nagle).
+    fn device(stream: TcpStream, local: SocketAddr) -> Result<Self, LinkError> {
         stream
             .set_nonblocking(false)
             .map_err(|e| LinkError::io("stream blocking", e))?;
@@ -372,17 +377,7 @@ impl SlcanListener {
     fn accept_next(&mut self) -> Result<(), LinkError> {
         match self.listener.accept() {
             Ok((stream, _)) => {
-                stream
-                    .set_nonblocking(false)
-                    .map_err(|e| LinkError::io("stream blocking", e))?;
-                stream
-                    .set_nodelay(true)
-                    .map_err(|e| LinkError::io("TCP_NODELAY", e))?;
-                self.current = Some(SlcanLink::new(
-                    Box::new(stream) as Box<dyn Stream>,
-                    Role::Device,
-                    format!("slcan/tcp {}", self.local),
-                )?);
+                self.current = Some(SlcanLink::device(stream, self.local)?);
                 self.accepted += 1;
                 self.trusted_at = Instant::now();
                 Ok(())
