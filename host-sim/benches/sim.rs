@@ -6,9 +6,9 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use host_sim::experiment::{self, RunConfig};
-use host_sim::registry;
-use host_sim::sim::Episode;
+use host_sim::teach::experiment::{self, RunConfig};
+use host_sim::world::registry;
+use host_sim::world::sim::Episode;
 
 fn bench(c: &mut Criterion) {
     let scenario = Arc::new(registry::load_scenario("doors").unwrap());

@@ -8,8 +8,8 @@
 //! figures, and this test checks that each frozen scale still lies in the interval its teacher's
 //! own targets allow. If one ever leaves it, the calibration must be redone openly.
 
-use host_sim::calibrate;
-use host_sim::teacher::{PRESETS, scaled};
+use host_sim::teach::calibrate;
+use host_sim::world::teacher::{PRESETS, scaled};
 
 fn documented() -> String {
     let path = concat!(

@@ -3,9 +3,10 @@
 
 use std::sync::Arc;
 
-use host_sim::experiment::{self, InProcessLink, Mode, RunConfig, fnv1a};
-use host_sim::registry;
-use host_sim::teacher::FeedbackKind;
+use host_sim::teach::experiment::{self, InProcessLink, Mode, RunConfig};
+use host_sim::teach::record::fnv1a;
+use host_sim::world::registry;
+use host_sim::world::teacher::FeedbackKind;
 
 /// FNV-1a over the CSV bytes of [`golden_config`]. Change it only for an intended change of the
 /// simulation, and say so in the commit.
@@ -56,7 +57,7 @@ fn runs_in_parallel_equal_runs_in_sequence() {
             ..c.clone()
         })
         .collect();
-    let parallel = registry::run_all(&configs);
+    let parallel = experiment::run_all(&configs);
     for (cfg, p) in configs.iter().zip(parallel) {
         let seq = experiment::run(cfg).unwrap();
         assert_eq!(p.unwrap().csv_bytes(), seq.csv_bytes());

@@ -6,11 +6,12 @@ use std::path::Path;
 use std::process::{Command, Output};
 use std::sync::Arc;
 
-use host_sim::experiment::{self, Mode, RunConfig, fnv1a};
-use host_sim::generator::{self, GenerateError, Options, OptionsError, World, check};
-use host_sim::map::Cell;
-use host_sim::scenario::Scenario;
-use host_sim::teacher::{PRESETS, TeacherSpec};
+use host_sim::teach::experiment::{self, Mode, RunConfig};
+use host_sim::teach::record::fnv1a;
+use host_sim::world::generator::{self, GenerateError, Options, OptionsError, World, check};
+use host_sim::world::map::Cell;
+use host_sim::world::scenario::Scenario;
+use host_sim::world::teacher::{PRESETS, TeacherSpec};
 use rayon::prelude::*;
 
 fn host_sim(args: &[&str]) -> Output {
@@ -171,7 +172,7 @@ fn worlds_0_to_99_load_lap_and_show_their_objects() {
         for (i, p) in PRESETS.iter().enumerate() {
             // Every teacher laps the loaded world, driven by the experiment loop.
             let lap = &w.laps[i];
-            assert!(lap.lapped(), "{name}: {}", lap.teacher);
+            assert_eq!(lap.trace.len() as u32, lap.ticks + 1, "{name}: {}", p.name);
             // (as many ticks as the generator's lap took, and 20 more)
             first_lap(&loaded, TeacherSpec::from_preset(p), lap.ticks + 20)
                 .unwrap_or_else(|e| panic!("seed {seed}, {}: {e}", p.name));

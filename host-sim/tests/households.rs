@@ -3,8 +3,9 @@
 
 use std::sync::Arc;
 
-use host_sim::experiment::{self, Mode, RunConfig, RunReport};
-use host_sim::registry;
+use host_sim::teach::experiment::{self, Mode, RunConfig};
+use host_sim::teach::record::RunReport;
+use host_sim::world::registry;
 
 fn teacher_drive(name: &str, steps: u32) -> RunReport {
     let s = Arc::new(registry::load_scenario(name).unwrap());

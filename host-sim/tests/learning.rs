@@ -6,9 +6,11 @@
 use std::sync::Arc;
 
 use firmware_core::LearnerParams;
-use host_sim::experiment::{self, Mode, RunConfig, RunReport, StartJitter};
-use host_sim::registry;
-use host_sim::teacher::FeedbackKind;
+use host_sim::teach::bc;
+use host_sim::teach::experiment::{self, Mode, RunConfig, StartJitter};
+use host_sim::teach::record::RunReport;
+use host_sim::world::registry;
+use host_sim::world::teacher::FeedbackKind;
 
 /// Seeds per test.
 const SEEDS: u64 = 8;
@@ -22,7 +24,7 @@ fn over_seeds(config: RunConfig) -> Vec<RunReport> {
             ..config.clone()
         })
         .collect();
-    registry::run_all(&configs)
+    experiment::run_all(&configs)
         .into_iter()
         .map(|r| r.unwrap())
         .collect()
@@ -128,12 +130,9 @@ fn behaviour_cloning_is_fitted_on_ticks_0_to_49_then_frozen() {
         // The samples are the teacher's demonstration of the run's ticks 0–49: the poses, the
         // labels and the masks of a run in which the teacher's own policy drives from the same
         // (jittered) start.
-        let samples = experiment::bc_samples(&config).unwrap();
+        let samples = bc::bc_samples(&config).unwrap();
         let ticks: Vec<u32> = samples.iter().map(|x| x.tick).collect();
-        assert_eq!(
-            ticks,
-            (0..experiment::BC_SAMPLES as u32).collect::<Vec<_>>()
-        );
+        assert_eq!(ticks, (0..bc::BC_SAMPLES as u32).collect::<Vec<_>>());
         let teacher = experiment::run(&RunConfig {
             mode: Mode::Teacher,
             steps: 60,
@@ -147,8 +146,8 @@ fn behaviour_cloning_is_fitted_on_ticks_0_to_49_then_frozen() {
         let r = experiment::run(&config).unwrap();
         let bc = r.bc.expect("a bc run reports its fit");
         println!("seed {seed}: bc fit {bc:?}");
-        assert_eq!((bc.samples, bc.ticks), (experiment::BC_SAMPLES, 50));
-        assert!(bc.epochs >= 1 && bc.epochs <= experiment::BC_MAX_EPOCHS);
+        assert_eq!((bc.samples, bc.ticks), (bc::BC_SAMPLES, 50));
+        assert!(bc.epochs >= 1 && bc.epochs <= bc::BC_MAX_EPOCHS);
         assert_eq!(r.corrections(), 0, "no feedback reaches a frozen learner");
         assert_eq!(r.final_snapshot.state.average, bc.weights, "frozen");
         assert!(bc.weights.iter().any(|&w| w != 0.0));
@@ -168,7 +167,9 @@ fn behaviour_cloning_is_fitted_on_ticks_0_to_49_then_frozen() {
 #[test]
 fn run_s_default_learners_learn_over_seeds() {
     for kind in FeedbackKind::ALL {
-        let learner = LearnerParams::new(host_sim::learners::default_learner(Mode::Online(kind)));
+        let learner = LearnerParams::new(host_sim::teach::learners::default_learner(Mode::Online(
+            kind,
+        )));
         let runs = over_seeds(doors(kind, learner));
         let name = format!("doors/{}/{}", kind.name(), learner.kind.name());
         let (median, worst) = median_and_worst(ratios(&name, &runs));

@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use host_sim::map::{Cell, MapError, OccupancyGrid};
+use host_sim::world::map::{Cell, MapError, OccupancyGrid};
 
 /// `../shared/maps` relative to the repository root (CI has `../shared` beside the checkout).
 fn shared_maps() -> PathBuf {
@@ -56,14 +56,14 @@ fn the_shared_mushr_maps_load() {
 #[test]
 fn the_generated_households_are_what_the_generator_draws() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios/maps");
-    for (name, canvas) in host_sim::households::all() {
+    for (name, canvas) in host_sim::world::households::all() {
         let on_disk = std::fs::read(dir.join(format!("{name}.pgm"))).unwrap();
         assert!(
             on_disk == canvas.to_pgm(),
             "{name}.pgm differs from households.rs: run `host-sim gen-maps` and commit"
         );
         let yaml = std::fs::read_to_string(dir.join(format!("{name}.yaml"))).unwrap();
-        assert_eq!(yaml, host_sim::households::yaml(name));
+        assert_eq!(yaml, host_sim::world::households::yaml(name));
         let grid = OccupancyGrid::load(&dir.join(format!("{name}.yaml"))).unwrap();
         let [free, occupied, unknown] = grid.counts();
         assert!(free > 0 && occupied > 0 && unknown > 0, "{name}");

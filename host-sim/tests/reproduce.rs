@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use host_sim::reproduce::CLAIMS;
+use host_sim::report::claims::CLAIMS;
 
 const TINY: [&str; 4] = ["--trials", "2", "--steps", "40"];
 
@@ -115,7 +115,7 @@ fn a_short_reproduction_writes_every_output_and_checks_every_claim() {
     let sweep = std::fs::read_to_string(out.join("noise_sweep.csv")).unwrap();
     assert_eq!(
         sweep.lines().count(),
-        1 + host_sim::reproduce::NOISE_SWEEP.len()
+        1 + host_sim::report::grid::NOISE_SWEEP.len()
     );
     // The report names every claim with a verdict, and embeds every PNG.
     let report = std::fs::read_to_string(out.join("REPORT.md")).unwrap();

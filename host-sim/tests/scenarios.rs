@@ -3,8 +3,8 @@
 
 use std::path::Path;
 
-use host_sim::registry;
-use host_sim::scenario::Scenario;
+use host_sim::world::registry;
+use host_sim::world::scenario::Scenario;
 
 fn write(dir: &Path, name: &str, text: &str) -> std::path::PathBuf {
     let p = dir.join(name);
@@ -196,7 +196,7 @@ fn a_scenario_whose_teacher_cannot_lap_is_refused_with_where_and_why() {
     let file = walled_room(tmp.path());
     // The file itself is well formed.
     let s = Scenario::load(&file).unwrap();
-    let e = host_sim::check::teacher_lap(&std::sync::Arc::new(s)).unwrap_err();
+    let e = host_sim::world::check::teacher_lap(&std::sync::Arc::new(s)).unwrap_err();
     println!("{e}");
     // It stops in front of the wall, on the first leg of the path (y = 1, x below 3).
     assert!(e.x < 3.0 && (e.y - 1.0).abs() < 0.5, "{e:?}");
@@ -254,8 +254,8 @@ fn a_scenario_whose_teacher_cannot_lap_is_refused_with_where_and_why() {
 fn every_built_in_teacher_drives_a_lap_within_the_check_s_limit() {
     for s in registry::SCENARIOS {
         let scn = std::sync::Arc::new(registry::load_scenario_unchecked(s.name).unwrap());
-        let lap = host_sim::check::teacher_lap(&scn).unwrap();
-        let limit = host_sim::check::lap_tick_limit(&scn);
+        let lap = host_sim::world::check::teacher_lap(&scn).unwrap();
+        let limit = host_sim::world::check::lap_tick_limit(&scn);
         println!("{}: a lap in {} ticks (limit {limit})", s.name, lap.ticks);
         assert!(lap.ticks < limit / 2, "{}", s.name);
     }

@@ -23,9 +23,9 @@ use anyhow::{Context, Result, bail};
 use firmware_core::agent::Decision;
 use firmware_core::observation::Observation;
 use firmware_core::{Feedback, LearnerKind, LearnerParams, LearnerSnapshot};
-use host_sim::experiment::{CarLink, InProcessLink, Mode, RunConfig, run_with};
-use host_sim::registry;
-use host_sim::teacher::FeedbackKind;
+use host_sim::teach::experiment::{CarLink, InProcessLink, Mode, RunConfig, run_with};
+use host_sim::world::registry;
+use host_sim::world::teacher::FeedbackKind;
 use protocol::MAX_MESSAGE_SIZE;
 use protocol::message::{
     CarStatus, DeliveryId, FeedbackMessage, Message, ObservationMessage, WeightsReport,

@@ -31,7 +31,7 @@ use hil_mock::transport::record::{RecordingLink, read_log};
 use hil_mock::transport::slcan::{SlcanLink, SlcanListener};
 use hil_mock::transport::udp::UdpLink;
 use hil_mock::transport::{Link, LinkAddress, LinkError};
-use host_sim::experiment;
+use host_sim::teach::experiment;
 use protocol::can::CanFrame;
 use protocol::isotp::FrameMode;
 use protocol::link::{Inbox, Received, transmit};
@@ -182,8 +182,8 @@ fn attack(link: &mut dyn Link, log: &Path, done: &AtomicBool) -> Attack {
 #[track_caller]
 fn assert_unharmed(
     what: &str,
-    local: &experiment::RunReport,
-    report: &experiment::RunReport,
+    local: &host_sim::teach::record::RunReport,
+    report: &host_sim::teach::record::RunReport,
     car: &protocol::car::CarStats,
     a: &Attack,
 ) {

@@ -1,7 +1,7 @@
 //! Golden values pin the seeded synthetic run: a change to the learner's arithmetic, the
 //! teacher, or the random stream shows up here first.
 
-use host_sim::synthetic::{SyntheticConfig, run};
+use host_sim::teach::synthetic::{SyntheticConfig, run};
 
 #[test]
 fn synthetic_run_is_pinned() {

@@ -30,10 +30,10 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use firmware_core::{LearnerKind, LearnerParams, LearnerSnapshot};
 use hil_mock::transport::slcan::SlcanLink;
-use host_sim::experiment::{Mode, RunConfig, run, run_with};
-use host_sim::registry;
-use host_sim::remote::{RemoteCar, RemoteConfig};
-use host_sim::teacher::FeedbackKind;
+use host_sim::teach::experiment::{Mode, RunConfig, run, run_with};
+use host_sim::teach::remote::{RemoteCar, RemoteConfig};
+use host_sim::world::registry;
+use host_sim::world::teacher::FeedbackKind;
 use protocol::isotp::FrameMode;
 
 /// QEMU running the image, killed on drop.

@@ -22,8 +22,8 @@ use hil_mock::transport::record::{RecordingLink, read_log};
 use hil_mock::transport::slcan::SlcanLink;
 use hil_mock::transport::udp::UdpLink;
 use hil_mock::transport::{Link, LinkAddress};
-use host_sim::experiment::{self, CarLink, RunConfig};
-use host_sim::remote::{RemoteCar, RemoteConfig};
+use host_sim::teach::experiment::{self, CarLink, RunConfig};
+use host_sim::teach::remote::{RemoteCar, RemoteConfig};
 use protocol::car::{CarConfig, Persisted};
 use protocol::isotp::FrameMode;
 use protocol::link::{Inbox, Received, transmit};
@@ -493,8 +493,8 @@ fn run_with_a_lossy_restart(
     before_feedback: u32,
     which: Corrupt,
 ) -> (
-    anyhow::Result<experiment::RunReport>,
-    host_sim::remote::RemoteStats,
+    anyhow::Result<host_sim::teach::record::RunReport>,
+    host_sim::teach::remote::RemoteStats,
     String,
 ) {
     let dir = tempfile::tempdir().unwrap();

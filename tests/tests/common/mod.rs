@@ -17,8 +17,9 @@ use firmware_core::observation::Observation;
 use hil_mock::server::Server;
 use hil_mock::transport::Link;
 use hil_mock::transport::udp::UdpLink;
-use host_sim::experiment::{self, CarLink, RunConfig, RunReport};
-use host_sim::remote::{RemoteCar, RemoteConfig, RemoteStats};
+use host_sim::teach::experiment::{self, CarLink, RunConfig};
+use host_sim::teach::record::RunReport;
+use host_sim::teach::remote::{RemoteCar, RemoteConfig, RemoteStats};
 use protocol::car::{CarConfig, CarStats};
 use protocol::isotp::FrameMode;
 use protocol::secure::Key;
@@ -38,7 +39,7 @@ pub(crate) fn key_file(dir: &Path) -> std::path::PathBuf {
 }
 
 pub(crate) fn config(steps: u32) -> RunConfig {
-    let scenario = host_sim::registry::load_scenario("doors").unwrap();
+    let scenario = host_sim::world::registry::load_scenario("doors").unwrap();
     RunConfig {
         steps,
         seed: SEED,

@@ -1,0 +1,63 @@
+//! `host-sim list`, `draw` and `bench`: what is built in, a scenario's picture, the speed.
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{Result, bail};
+use host_sim::teach::experiment::{self, RunConfig};
+use host_sim::world::registry;
+
+use crate::load_scenario;
+
+pub(crate) fn list() {
+    println!("scenarios (--scenario NAME, or a path to your own .toml):");
+    for s in registry::SCENARIOS {
+        let length = load_scenario(s.name)
+            .map(|scn| format!("{:6.1} m path", scn.path.length()))
+            .unwrap_or_else(|e| format!("(cannot load: {e})"));
+        println!("  {:<14} {length}  {}", s.name, s.description);
+    }
+    println!("teacher presets (weights: obstacles, door, stairs, chair, path, right):");
+    for p in host_sim::world::teacher::PRESETS {
+        println!("  {:<14} {:?}  {}", p.name, p.weights, p.description);
+    }
+    println!("experiments:");
+    for e in host_sim::report::registry::EXPERIMENTS {
+        println!("  {:<14} {}", e.name, e.description);
+    }
+}
+
+pub(crate) fn draw(scenario: &str, run: Option<&Path>, out: &Path) -> Result<()> {
+    let s = load_scenario(scenario)?;
+    let mut raster = host_sim::report::plot::Raster::of_scenario(&s);
+    if let Some(csv) = run {
+        raster.trace(&host_sim::report::plot::read_trace(csv)?);
+    }
+    raster.write_png(out)?;
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+pub(crate) fn bench(scenario: &str, steps: u32) -> Result<()> {
+    if steps == 0 {
+        bail!("--steps must be positive");
+    }
+    let s = Arc::new(load_scenario(scenario)?);
+    let config = RunConfig {
+        steps,
+        ..RunConfig::new(s)
+    };
+    let started = Instant::now();
+    let report = experiment::run(&config)?;
+    let wall = started.elapsed().as_secs_f64();
+    println!(
+        "{}: {} simulated steps (action feedback, {} corrections) in {:.3} s: {:.0} steps/s on one core",
+        report.scenario,
+        steps,
+        report.corrections(),
+        wall,
+        steps as f64 / wall
+    );
+    Ok(())
+}

@@ -1,0 +1,390 @@
+//! The trial grid: settings, options, shards, and the jobs that run them.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::sync::Arc;
+
+use anyhow::{Context, Result, ensure};
+use firmware_core::{LearnerParams, PAPER_STEP};
+use rayon::prelude::*;
+
+use super::paths::{PathTrace, learner_lap};
+use crate::teach::experiment::{self, MAX_STEPS, Mode, RunConfig, StartJitter};
+use crate::teach::record::RESET_CAUSES;
+use crate::world::registry;
+use crate::world::scenario::Scenario;
+use crate::world::sim::ResetReason;
+use crate::world::teacher::FeedbackKind;
+
+/// The households of the variety experiment (the paper's three).
+pub const HOUSEHOLDS: [&str; 3] = ["doors", "stairs-right", "stairs-chairs"];
+/// Teacher noise levels of the noise experiment: 0 to 2.0 in steps of 0.125.
+pub const NOISE_SWEEP: [f32; 17] = [
+    0.0, 0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875, 1.0, 1.125, 1.25, 1.375, 1.5, 1.625, 1.75,
+    1.875, 2.0,
+];
+/// The noise levels drawn as curves (the paper's four).
+pub const NOISE_CURVES: [f32; 4] = [0.0, 0.25, 0.5, 1.0];
+/// The noise levels whose trained learner's path is drawn.
+pub const NOISE_PATHS: [f32; 3] = [0.0, 1.0, 2.0];
+/// The thresholds of the threshold experiment: the paper's five and 2, 4, 8.
+pub const THRESHOLDS: [f32; 8] = [0.0, 0.25, 0.5, 0.75, 1.0, 2.0, 4.0, 8.0];
+/// The paper's thresholds: claim 5 is decided on these.
+pub const PAPER_THRESHOLDS: [f32; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
+/// Longest drive of a path figure (ticks).
+pub const PATH_TICKS: u32 = 1_500;
+/// Largest number of trials per setting.
+pub const MAX_TRIALS: u32 = 10_000;
+/// Version of the shard files.
+pub const SHARD_FORMAT: u32 = 2;
+/// The factors of the teachers' scale the scale sweep runs the claims at.
+pub const SWEEP_FACTORS: [f32; 5] = [0.25, 0.5, 1.0, 2.0, 4.0];
+
+/// The paper's learner: plain OGD, constant step 0.01.
+pub fn paper_learner() -> LearnerParams {
+    LearnerParams::paper().with_step(PAPER_STEP)
+}
+
+/// Which experiment a setting belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Group {
+    /// Feedback types and behaviour cloning in three households.
+    Variety,
+    /// Teacher noise σ.
+    Noise,
+    /// Correction thresholds.
+    Thresholds,
+}
+
+impl Group {
+    /// Its name (the CSV's and figures' stem).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Group::Variety => "variety",
+            Group::Noise => "noise",
+            Group::Thresholds => "thresholds",
+        }
+    }
+}
+
+/// One curve of the paper: what every trial of it runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Setting {
+    /// The experiment.
+    pub group: Group,
+    /// The household (built-in scenario name).
+    pub household: &'static str,
+    /// How the learner is taught.
+    pub mode: Mode,
+    /// Teacher noise σ.
+    pub noise: f32,
+    /// Teacher threshold.
+    pub threshold: f32,
+    /// Whether trial 0's trained learner drives a lap for the path figures.
+    pub draw_path: bool,
+}
+
+impl Setting {
+    /// A unique name, usable as a folder name: `variety-doors-action`, `noise-0.125`,
+    /// `thresholds-0.25`.
+    pub fn key(&self) -> String {
+        match self.group {
+            Group::Variety => format!("variety-{}-{}", self.household, self.mode.name()),
+            Group::Noise => format!("noise-{}", self.noise),
+            Group::Thresholds => format!("thresholds-{}", self.threshold),
+        }
+    }
+
+    /// The run of trial `trial`.
+    pub fn config(&self, scenario: Arc<Scenario>, trial: u32, o: &Options) -> RunConfig {
+        RunConfig {
+            mode: self.mode,
+            steps: o.steps,
+            seed: o.seed.wrapping_add(trial as u64),
+            threshold: Some(self.threshold),
+            noise: Some(self.noise),
+            learner: paper_learner(),
+            start_jitter: Some(StartJitter::REPRODUCE),
+            statements: Some(crate::world::teacher::StatementSet::Paper),
+            random_answers: Some(0.0),
+            teacher_scale: (o.teacher_scale != 1.0).then_some(o.teacher_scale),
+            ..RunConfig::new(scenario)
+        }
+    }
+}
+
+/// Every setting, in the grid's order.
+pub fn settings() -> Vec<Setting> {
+    let mut out = Vec::new();
+    for household in HOUSEHOLDS {
+        let mut modes: Vec<Mode> = FeedbackKind::ALL.into_iter().map(Mode::Online).collect();
+        modes.push(Mode::BehaviourCloning);
+        for mode in modes {
+            out.push(Setting {
+                group: Group::Variety,
+                household,
+                mode,
+                noise: 0.0,
+                threshold: 1.0,
+                draw_path: false,
+            });
+        }
+    }
+    for noise in NOISE_SWEEP {
+        out.push(Setting {
+            group: Group::Noise,
+            household: "doors",
+            mode: Mode::Online(FeedbackKind::Action),
+            noise,
+            threshold: 1.0,
+            draw_path: NOISE_PATHS.contains(&noise),
+        });
+    }
+    for threshold in THRESHOLDS {
+        out.push(Setting {
+            group: Group::Thresholds,
+            household: "stairs-chairs",
+            mode: Mode::Online(FeedbackKind::Action),
+            noise: 0.0,
+            threshold,
+            draw_path: true,
+        });
+    }
+    out
+}
+
+/// The size of the grid, and the teachers' scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Options {
+    /// Trials per setting.
+    pub trials: u32,
+    /// Steps per trial.
+    pub steps: u32,
+    /// Seed of trial 0 (trial `t` has `seed + t`).
+    pub seed: u64,
+    /// Every teacher's weights times this (1: the calibrated teachers).
+    pub teacher_scale: f32,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Self {
+            trials: 10,
+            steps: 5_000,
+            seed: 0,
+            teacher_scale: 1.0,
+        }
+    }
+}
+
+impl Options {
+    /// The grid in words: "10 trials × 5000 steps, seed 0" (and the teachers' scale if not 1).
+    pub fn describe(&self) -> String {
+        let mut d = format!(
+            "{} trials × {} steps, seed {}",
+            self.trials, self.steps, self.seed
+        );
+        if self.teacher_scale != 1.0 {
+            let _ = write!(d, ", teachers' scale × {}", self.teacher_scale);
+        }
+        d
+    }
+
+    /// Checks the numbers.
+    pub fn check(&self) -> Result<()> {
+        ensure!(
+            self.teacher_scale.is_finite()
+                && self.teacher_scale > 0.0
+                && self.teacher_scale <= 1.0e3,
+            "--teacher-scale must be in (0, 1000], got {}",
+            self.teacher_scale
+        );
+        ensure!(
+            (1..=MAX_TRIALS).contains(&self.trials),
+            "--trials must be in 1..={MAX_TRIALS}, got {}",
+            self.trials
+        );
+        ensure!(
+            (10..=MAX_STEPS).contains(&self.steps),
+            "--steps must be in 10..={MAX_STEPS}, got {}",
+            self.steps
+        );
+        Ok(())
+    }
+}
+
+/// Slice `index` of `count` of the grid (`--shard index/count`, `index` from 0).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// This shard, `0..count`.
+    pub index: u32,
+    /// Number of shards.
+    pub count: u32,
+}
+
+impl Shard {
+    /// The whole grid.
+    pub const WHOLE: Shard = Shard { index: 0, count: 1 };
+
+    /// Whether job `job` is in this shard.
+    pub fn has(&self, job: usize) -> bool {
+        job % self.count as usize == self.index as usize
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        let bad = || format!("shard must be INDEX/COUNT with 0 <= INDEX < COUNT, got {s:?}");
+        let (i, n) = s.split_once('/').ok_or_else(bad)?;
+        let index: u32 = i.trim().parse().map_err(|_| bad())?;
+        let count: u32 = n.trim().parse().map_err(|_| bad())?;
+        if count == 0 || index >= count {
+            return Err(bad());
+        }
+        Ok(Shard { index, count })
+    }
+}
+
+/// What one job produced.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrialResult {
+    /// Index into [`settings`].
+    pub setting: usize,
+    /// The trial.
+    pub trial: u32,
+    /// True latent loss per step.
+    pub latent: Vec<f32>,
+    /// Cumulative corrections per step.
+    pub corrections: Vec<u32>,
+    /// Progress along the path per step (m; see [`crate::world::sim::Episode::path_progress`]).
+    pub progress: Vec<f64>,
+    /// Laps completed so far, per step.
+    pub laps: Vec<u32>,
+    /// The reset of each step, if any.
+    pub resets: Vec<Option<ResetReason>>,
+    /// The trained learner's lap (trial 0 of a setting that draws paths).
+    pub path: Option<PathTrace>,
+}
+
+impl TrialResult {
+    /// Resets by cause: collision, stuck, lost, blocked ([`RESET_CAUSES`]).
+    pub fn reset_counts(&self) -> [u32; 4] {
+        let mut n = [0u32; 4];
+        for r in self.resets.iter().flatten() {
+            if let Some(i) = RESET_CAUSES.iter().position(|c| *c == r.name()) {
+                n[i] += 1;
+            }
+        }
+        n
+    }
+}
+
+/// The built-in households, loaded once and shared.
+pub fn load_households() -> Result<BTreeMap<&'static str, Arc<Scenario>>> {
+    let mut m = BTreeMap::new();
+    for h in HOUSEHOLDS {
+        m.insert(h, Arc::new(registry::load_scenario(h)?));
+    }
+    Ok(m)
+}
+
+/// Runs job (`setting`, `trial`).
+pub fn run_job(
+    households: &BTreeMap<&'static str, Arc<Scenario>>,
+    all: &[Setting],
+    setting: usize,
+    trial: u32,
+    o: &Options,
+) -> Result<TrialResult> {
+    let s = all
+        .get(setting)
+        .with_context(|| format!("no setting {setting}"))?;
+    let scenario = households
+        .get(s.household)
+        .with_context(|| format!("household {} not loaded", s.household))?
+        .clone();
+    let config = s.config(scenario.clone(), trial, o);
+    let report = experiment::run(&config).with_context(|| format!("{} trial {trial}", s.key()))?;
+    let path = if s.draw_path && trial == 0 {
+        Some(learner_lap(
+            &scenario,
+            &report.final_snapshot,
+            config.teacher(),
+            PATH_TICKS,
+        )?)
+    } else {
+        None
+    };
+    Ok(TrialResult {
+        setting,
+        trial,
+        latent: report.records.iter().map(|r| r.latent_loss).collect(),
+        corrections: report.records.iter().map(|r| r.corrections).collect(),
+        progress: report.records.iter().map(|r| r.progress).collect(),
+        laps: report.records.iter().map(|r| r.lap).collect(),
+        resets: report.records.iter().map(|r| r.reset).collect(),
+        path,
+    })
+}
+
+/// The jobs of `shard`: (setting, trial), in grid order.
+pub fn jobs(o: &Options, shard: Shard) -> Vec<(usize, u32)> {
+    let n = settings().len();
+    (0..n)
+        .flat_map(|s| (0..o.trials).map(move |t| (s, t)))
+        .enumerate()
+        .filter(|(k, _)| shard.has(*k))
+        .map(|(_, j)| j)
+        .collect()
+}
+
+/// Runs the jobs of `shard` on the current rayon pool; `done` is called after each job.
+pub fn run_shard(o: &Options, shard: Shard, done: &(dyn Fn() + Sync)) -> Result<Vec<TrialResult>> {
+    o.check()?;
+    let households = load_households()?;
+    let all = settings();
+    let jobs = jobs(o, shard);
+    let results: Vec<Result<TrialResult>> = jobs
+        .par_iter()
+        .map(|&(s, t)| {
+            let r = run_job(&households, &all, s, t, o);
+            done();
+            r
+        })
+        .collect();
+    results.into_iter().collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_parse_and_partition_the_grid() {
+        assert_eq!("2/5".parse::<Shard>(), Ok(Shard { index: 2, count: 5 }));
+        for bad in ["5/5", "1/0", "x/2", "3", "-1/2", ""] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+        let o = Options {
+            trials: 3,
+            steps: 10,
+            seed: 0,
+            teacher_scale: 1.0,
+        };
+        let whole = jobs(&o, Shard::WHOLE);
+        assert_eq!(whole.len(), settings().len() * 3);
+        let mut union: Vec<_> = (0..4)
+            .flat_map(|i| jobs(&o, Shard { index: i, count: 4 }))
+            .collect();
+        union.sort();
+        assert_eq!(union, whole);
+    }
+
+    #[test]
+    fn setting_keys_are_unique() {
+        let keys: std::collections::BTreeSet<_> = settings().iter().map(Setting::key).collect();
+        assert_eq!(keys.len(), settings().len());
+    }
+}

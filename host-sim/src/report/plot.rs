@@ -1,0 +1,291 @@
+//! Drawings: the 64-trajectory lattice as an SVG (`host-sim lattice`), and a scenario's map with
+//! its path, objects and a run's poses as a PNG (`host-sim draw`, [`Raster`]).
+//!
+//! # The lattice drawing
+//!
+//! Cruise trajectories (actions 0–48, 1 m) are drawn in blue, creep trajectories (49–63,
+//! 0.5 m) in orange, from the rear axle at the origin, x forward (right in the picture), y left
+//! (up). The straight action 0 is drawn thicker.
+
+use std::path::Path;
+
+use anyhow::{Result, anyhow};
+use firmware_core::ActionIndex;
+use firmware_core::lattice::{Family, trajectory};
+use plotters::prelude::*;
+
+/// Draws the lattice into the SVG file `out`.
+pub fn lattice_svg(out: &Path) -> Result<()> {
+    let root = SVGBackend::new(out, (800, 800)).into_drawing_area();
+    root.fill(&WHITE)
+        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "firmware-core lattice: 64 trajectories (car frame)",
+            ("sans-serif", 22),
+        )
+        .margin(20)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(-0.1f64..1.1f64, -0.6f64..0.6f64)
+        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    chart
+        .configure_mesh()
+        .x_desc("x forward (m)")
+        .y_desc("y left (m)")
+        .draw()
+        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    let cruise = RGBColor(31, 119, 180);
+    let creep = RGBColor(255, 127, 14);
+    for a in ActionIndex::all() {
+        let t = trajectory(a);
+        let mut pts = vec![(0.0, 0.0)];
+        pts.extend(t.poses.iter().map(|p| (p.x as f64, p.y as f64)));
+        let colour = if t.family == Family::Cruise {
+            cruise
+        } else {
+            creep
+        };
+        let width = if a.get() == 0 { 3 } else { 1 };
+        chart
+            .draw_series(LineSeries::new(pts, colour.stroke_width(width)))
+            .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    }
+    root.present()
+        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    Ok(())
+}
+
+/// An RGB raster of a scenario's map with its path, objects and start, and optionally a driven
+/// trajectory (`host-sim draw`): free cells white, occupied black, unknown grey; the path blue,
+/// doors brown, stairs red, chairs green, the driven poses orange, the start magenta.
+#[derive(Clone, Debug)]
+pub struct Raster {
+    width: usize,
+    height: usize,
+    /// Pixels per map cell.
+    scale: usize,
+    rgb: Vec<u8>,
+    grid: std::sync::Arc<crate::world::map::OccupancyGrid>,
+}
+
+const PATH_BLUE: [u8; 3] = [30, 100, 230];
+const DRIVEN: [u8; 3] = [255, 140, 0];
+
+impl Raster {
+    /// The map of `scenario` with its path, objects and start drawn, at most about 1000 pixels
+    /// wide.
+    pub fn of_scenario(scenario: &crate::world::scenario::Scenario) -> Self {
+        Self::of_scenario_within(scenario, 1000)
+    }
+
+    /// The same, at the largest whole number of pixels per cell (1 to 8) that keeps it at most
+    /// `max_width` pixels wide (at least one pixel per cell).
+    pub fn of_scenario_within(
+        scenario: &crate::world::scenario::Scenario,
+        max_width: usize,
+    ) -> Self {
+        let scale = (max_width / scenario.map.width().max(1)).clamp(1, 8);
+        Self::of_scenario_scaled(scenario, scale)
+    }
+
+    /// The largest whole number of pixels per cell (1 to 8) that keeps every one of `scenarios`
+    /// at most `max_width` pixels wide: drawing them all at it gives one scale for all.
+    pub fn common_scale(
+        scenarios: &[&crate::world::scenario::Scenario],
+        max_width: usize,
+    ) -> usize {
+        let widest = scenarios.iter().map(|s| s.map.width()).max().unwrap_or(1);
+        (max_width / widest.max(1)).clamp(1, 8)
+    }
+
+    /// Metres per pixel of a scenario drawn at `scale` pixels per cell.
+    pub fn metres_per_pixel(scenario: &crate::world::scenario::Scenario, scale: usize) -> f64 {
+        scenario.map.resolution() / scale.max(1) as f64
+    }
+
+    /// The map of `scenario` at `scale` pixels per cell (1 to 8).
+    pub fn of_scenario_scaled(scenario: &crate::world::scenario::Scenario, scale: usize) -> Self {
+        use crate::world::map::Cell;
+        let grid = scenario.map.clone();
+        let scale = scale.clamp(1, 8);
+        let (width, height) = (grid.width() * scale, grid.height() * scale);
+        let mut r = Self {
+            width,
+            height,
+            scale,
+            rgb: vec![0; width * height * 3],
+            grid,
+        };
+        for row in 0..r.grid.height() {
+            for col in 0..r.grid.width() {
+                let c = match r.grid.cell(col, row) {
+                    Some(Cell::Free) => [255, 255, 255],
+                    Some(Cell::Occupied) => [0, 0, 0],
+                    _ => [180, 180, 180],
+                };
+                for dy in 0..scale {
+                    for dx in 0..scale {
+                        let px = col * scale + dx;
+                        let py = (r.grid.height() - 1 - row) * scale + dy;
+                        r.put(px as i64, py as i64, c);
+                    }
+                }
+            }
+        }
+        for o in &scenario.objects {
+            let colour = match o.class {
+                firmware_core::observation::SemanticClass::Door => [150, 90, 30],
+                firmware_core::observation::SemanticClass::Stairs => [220, 30, 30],
+                firmware_core::observation::SemanticClass::Chair => [30, 170, 60],
+            };
+            r.fill_object(o, colour);
+        }
+        let pts = scenario.path.points();
+        let n = pts.len();
+        let segs = if scenario.path.is_closed() { n } else { n - 1 };
+        for i in 0..segs {
+            r.line(pts[i], pts[(i + 1) % n], PATH_BLUE);
+        }
+        let st = scenario.start;
+        r.disc((st.x, st.y), 0.15, [220, 0, 220]);
+        r
+    }
+
+    fn to_px(&self, x: f64, y: f64) -> (i64, i64) {
+        // Map yaw is ignored in drawings (all shipped maps have yaw 0).
+        let o = self.grid.origin();
+        let res = self.grid.resolution() / self.scale as f64;
+        let px = ((x - o[0]) / res).floor() as i64;
+        let py = self.height as i64 - 1 - ((y - o[1]) / res).floor() as i64;
+        (px, py)
+    }
+
+    fn put(&mut self, x: i64, y: i64, c: [u8; 3]) {
+        if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
+            let i = (y as usize * self.width + x as usize) * 3;
+            self.rgb[i..i + 3].copy_from_slice(&c);
+        }
+    }
+
+    fn line(&mut self, a: (f64, f64), b: (f64, f64), c: [u8; 3]) {
+        let (x0, y0) = self.to_px(a.0, a.1);
+        let (x1, y1) = self.to_px(b.0, b.1);
+        let n = (x1 - x0).abs().max((y1 - y0).abs()).max(1);
+        for k in 0..=n {
+            let x = x0 + (x1 - x0) * k / n;
+            let y = y0 + (y1 - y0) * k / n;
+            self.put(x, y, c);
+            self.put(x + 1, y, c);
+            self.put(x, y + 1, c);
+        }
+    }
+
+    fn disc(&mut self, p: (f64, f64), radius: f64, c: [u8; 3]) {
+        let res = self.grid.resolution() / self.scale as f64;
+        let r = (radius / res).ceil() as i64;
+        let (cx, cy) = self.to_px(p.0, p.1);
+        for dy in -r..=r {
+            for dx in -r..=r {
+                if dx * dx + dy * dy <= r * r {
+                    self.put(cx + dx, cy + dy, c);
+                }
+            }
+        }
+    }
+
+    fn fill_object(&mut self, o: &crate::world::scenario::WorldObject, c: [u8; 3]) {
+        use crate::world::scenario::Shape;
+        match o.shape {
+            Shape::Disc { radius } => self.disc((o.x, o.y), radius, c),
+            Shape::Rect { width, height, yaw } => {
+                let res = self.grid.resolution() / self.scale as f64 / 2.0;
+                let (cs, sn) = (yaw.cos(), yaw.sin());
+                let (nu, nv) = ((width / res) as i64, (height / res) as i64);
+                for i in 0..=nu {
+                    for j in 0..=nv {
+                        let u = -width / 2.0 + width * i as f64 / nu.max(1) as f64;
+                        let v = -height / 2.0 + height * j as f64 / nv.max(1) as f64;
+                        let (px, py) = self.to_px(o.x + u * cs - v * sn, o.y + u * sn + v * cs);
+                        self.put(px, py, c);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Draws a polyline through `points` (world frame), two pixels thick.
+    pub fn polyline(&mut self, points: &[(f64, f64)], c: [u8; 3]) {
+        for w in points.windows(2) {
+            self.line(w[0], w[1], c);
+        }
+    }
+
+    /// Width and height in pixels.
+    pub fn size(&self) -> (usize, usize) {
+        (self.width, self.height)
+    }
+
+    /// The pixels, RGB, row-major from the top.
+    pub fn rgb(&self) -> &[u8] {
+        &self.rgb
+    }
+
+    /// Marks driven positions (world frame).
+    pub fn trace(&mut self, points: &[(f64, f64)]) {
+        for &(x, y) in points {
+            let (px, py) = self.to_px(x, y);
+            for d in [(0, 0), (1, 0), (0, 1), (-1, 0), (0, -1)] {
+                self.put(px + d.0, py + d.1, DRIVEN);
+            }
+        }
+    }
+
+    /// Writes the raster as a PNG file.
+    pub fn write_png(&self, out: &Path) -> Result<()> {
+        let file = std::fs::File::create(out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
+        let mut enc = png::Encoder::new(
+            std::io::BufWriter::new(file),
+            self.width as u32,
+            self.height as u32,
+        );
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc
+            .write_header()
+            .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+        w.write_image_data(&self.rgb)
+            .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+        Ok(())
+    }
+}
+
+/// Reads the `x`, `y` columns of a `steps.csv` written by `host-sim run`.
+pub fn read_trace(csv: &Path) -> Result<Vec<(f64, f64)>> {
+    let text = std::fs::read_to_string(csv).map_err(|e| anyhow!("{}: {e}", csv.display()))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines
+        .next()
+        .ok_or_else(|| anyhow!("{}: empty", csv.display()))?
+        .split(',')
+        .collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| *h == name)
+            .ok_or_else(|| anyhow!("{}: no column {name:?}", csv.display()))
+    };
+    let (cx, cy) = (col("x")?, col("y")?);
+    let mut out = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        let parse = |c: usize| -> Result<f64> {
+            f.get(c)
+                .and_then(|v| v.parse::<f64>().ok())
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| anyhow!("{}: line {}: bad number", csv.display(), i + 2))
+        };
+        out.push((parse(cx)?, parse(cy)?));
+    }
+    Ok(out)
+}

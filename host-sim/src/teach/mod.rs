@@ -1,0 +1,23 @@
+//! A learner taught in a world: runs, links, baselines, and the choices they rest on.
+//!
+//! * [`config`]: a run's configuration: the mode, the learner, the teacher's overrides, the
+//!   start jitter.
+//! * [`experiment`]: the run loop behind the [`experiment::CarLink`] trait, parallel runs.
+//! * [`bc`]: behaviour cloning, the paper's baseline.
+//! * [`record`]: what a run records: per-step records, CSV, summary, task success.
+//! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
+//!   controller (`hil_mock`, the firmware) over a CAN link.
+//! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
+//! * [`learners`]: `host-sim learners`, every learner × feedback × noise × world, and the rule
+//!   that picks `host-sim run`'s default learner from it (`docs/learners.md`).
+//! * [`calibrate`]: `host-sim calibrate`, the procedure that fixes the teachers' scale from the
+//!   paper's words (`docs/reproduction/CALIBRATION.md`).
+
+pub mod bc;
+pub mod calibrate;
+pub mod config;
+pub mod experiment;
+pub mod learners;
+pub mod record;
+pub mod remote;
+pub mod synthetic;

@@ -1,0 +1,383 @@
+//! The simulated MuSHR car: a kinematic bicycle with steering-rate and acceleration limits, its
+//! rectangular footprint, and a pure-pursuit tracking controller for a lattice trajectory.
+//!
+//! # Model
+//!
+//! State `(x, y, θ)` of the rear-axle midpoint, speed `v`, steering angle `δ`. Each physics step
+//! of `dt` first moves `δ` towards the command by at most `steer_rate · dt` and `v` towards the
+//! command by at most `max_accel · dt`, then advances the pose exactly along the arc of curvature
+//! `tan δ / L` (closed form, no Euler error). Constants ([`CarParams::MUSHR`]): wheelbase
+//! `L` = 0.33 m, steering ±0.34 rad, 4 rad/s steering rate, 2 m/s² acceleration, footprint
+//! 0.5 m × 0.3 m centred 0.15 m ahead of the rear axle, physics at 100 Hz.
+//!
+//! # Tracking
+//!
+//! A chosen trajectory (car frame, from the lattice) is fixed in the world at the pose where it
+//! was chosen. [`Tracker`] steers by pure pursuit towards the point of that polyline (extended
+//! straight past its end) [`Tracker::LOOKAHEAD`] ahead of the car's projection onto it, and
+//! drives at the trajectory's speed. On a constant-curvature arc pure pursuit commands exactly
+//! the arc's curvature, so the plant's longer wheelbase (0.33 m vs the lattice's 0.29 m) costs
+//! nothing: steering is computed for the plant.
+//!
+//! All transcendental functions go through `libm`, so results are the same on every host.
+
+use firmware_core::lattice::Trajectory;
+
+use crate::world::map::OccupancyGrid;
+
+/// A pose in the world frame (rear-axle midpoint, heading counter-clockwise from +x).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Pose {
+    /// x (m).
+    pub x: f64,
+    /// y (m).
+    pub y: f64,
+    /// Heading (rad).
+    pub theta: f64,
+}
+
+impl Pose {
+    /// The world point of a point given in this pose's frame.
+    #[inline]
+    pub fn to_world(&self, px: f64, py: f64) -> (f64, f64) {
+        let (s, c) = (libm::sin(self.theta), libm::cos(self.theta));
+        (self.x + px * c - py * s, self.y + px * s + py * c)
+    }
+
+    /// A world point in this pose's frame.
+    #[inline]
+    pub fn to_local(&self, wx: f64, wy: f64) -> (f64, f64) {
+        let (s, c) = (libm::sin(self.theta), libm::cos(self.theta));
+        let (dx, dy) = (wx - self.x, wy - self.y);
+        (dx * c + dy * s, -dx * s + dy * c)
+    }
+}
+
+/// Wraps an angle into `[−π, π]`.
+pub fn wrap_angle(a: f64) -> f64 {
+    use std::f64::consts::PI;
+    let mut w = a - 2.0 * PI * libm::floor((a + PI) / (2.0 * PI));
+    if w > PI {
+        w -= 2.0 * PI;
+    }
+    if w < -PI {
+        w += 2.0 * PI;
+    }
+    w
+}
+
+/// The car's constants.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CarParams {
+    /// Wheelbase (m).
+    pub wheelbase: f64,
+    /// Largest steering angle (rad).
+    pub max_steering: f64,
+    /// Largest steering rate (rad/s).
+    pub steering_rate: f64,
+    /// Largest acceleration and deceleration (m/s²).
+    pub max_accel: f64,
+    /// Footprint length (m).
+    pub length: f64,
+    /// Footprint width (m).
+    pub width: f64,
+    /// Distance from the rear axle forward to the footprint's centre (m).
+    pub center_offset: f64,
+    /// Physics steps per second.
+    pub physics_hz: u32,
+}
+
+impl CarParams {
+    /// The MuSHR racecar.
+    pub const MUSHR: Self = Self {
+        wheelbase: 0.33,
+        max_steering: 0.34,
+        steering_rate: 4.0,
+        max_accel: 2.0,
+        length: 0.5,
+        width: 0.3,
+        center_offset: 0.15,
+        physics_hz: 100,
+    };
+
+    /// Whether the footprint at `pose` overlaps a cell that is not free. Samples the rectangle
+    /// on a grid no coarser than half a cell (edges included).
+    pub fn footprint_hits(&self, map: &OccupancyGrid, pose: Pose) -> bool {
+        let step = map.resolution() / 2.0;
+        let nx = libm::ceil(self.length / step) as usize;
+        let ny = libm::ceil(self.width / step) as usize;
+        let (s, c) = (libm::sin(pose.theta), libm::cos(pose.theta));
+        let cx = pose.x + self.center_offset * c;
+        let cy = pose.y + self.center_offset * s;
+        // Every sample is within the half-diagonal of the centre, so its cell is at most
+        // ⌊half-diagonal / resolution⌋ + 1 cells from the centre's along each axis (one more for
+        // rounding). If all cells that near are free, no sample can hit: the same answer as the
+        // loop below, without it.
+        let reach = libm::sqrt(self.length * self.length + self.width * self.width) / 2.0;
+        let near = (reach / map.resolution()).floor() + 2.0;
+        if (map.clearance_cells(cx, cy) as f64) > near {
+            return false;
+        }
+        for i in 0..=nx {
+            let u = -self.length / 2.0 + self.length * i as f64 / nx as f64;
+            for j in 0..=ny {
+                let v = -self.width / 2.0 + self.width * j as f64 / ny as f64;
+                if map.is_blocked(cx + u * c - v * s, cy + u * s + v * c) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+/// The car's state.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct CarState {
+    /// Pose of the rear axle.
+    pub pose: Pose,
+    /// Forward speed (m/s).
+    pub speed: f64,
+    /// Steering angle (rad).
+    pub steering: f64,
+}
+
+impl CarState {
+    /// Standing at `pose`, wheels straight.
+    pub fn at(pose: Pose) -> Self {
+        Self {
+            pose,
+            speed: 0.0,
+            steering: 0.0,
+        }
+    }
+
+    /// One physics step of `dt` towards the commanded steering and speed.
+    pub fn step(&mut self, p: &CarParams, steering_cmd: f64, speed_cmd: f64, dt: f64) {
+        let target = steering_cmd.clamp(-p.max_steering, p.max_steering);
+        let ds = p.steering_rate * dt;
+        self.steering += (target - self.steering).clamp(-ds, ds);
+        let dv = p.max_accel * dt;
+        self.speed += (speed_cmd - self.speed).clamp(-dv, dv);
+        let s = self.speed * dt;
+        let k = libm::tan(self.steering) / p.wheelbase;
+        let th = self.pose.theta;
+        if libm::fabs(k * s) < 1e-9 {
+            self.pose.x += s * libm::cos(th);
+            self.pose.y += s * libm::sin(th);
+        } else {
+            let th2 = th + k * s;
+            self.pose.x += (libm::sin(th2) - libm::sin(th)) / k;
+            self.pose.y -= (libm::cos(th2) - libm::cos(th)) / k;
+            self.pose.theta = wrap_angle(th2);
+        }
+    }
+}
+
+/// Pure pursuit along one lattice trajectory fixed in the world.
+#[derive(Clone, Debug)]
+pub struct Tracker {
+    /// Polyline: the start pose then the trajectory's poses, world frame.
+    points: Vec<(f64, f64)>,
+    /// Length of each polyline segment.
+    lens: Vec<f64>,
+    /// Heading at the end, for the straight extension.
+    end_heading: f64,
+    speed: f64,
+}
+
+impl Tracker {
+    /// Look-ahead distance of pure pursuit (m).
+    pub const LOOKAHEAD: f64 = 0.3;
+
+    /// Fixes `trajectory` in the world at `origin` (the pose where it was chosen).
+    pub fn new(origin: Pose, trajectory: &Trajectory) -> Self {
+        let mut points = Vec::with_capacity(trajectory.poses.len() + 1);
+        points.push((origin.x, origin.y));
+        for p in &trajectory.poses {
+            points.push(origin.to_world(p.x as f64, p.y as f64));
+        }
+        let lens = points
+            .windows(2)
+            .map(|w| {
+                let (dx, dy) = (w[1].0 - w[0].0, w[1].1 - w[0].1);
+                libm::sqrt(dx * dx + dy * dy)
+            })
+            .collect();
+        Self {
+            points,
+            lens,
+            end_heading: origin.theta + trajectory.end().theta as f64,
+            speed: trajectory.speed as f64,
+        }
+    }
+
+    /// The commanded speed (m/s).
+    pub fn speed(&self) -> f64 {
+        self.speed
+    }
+
+    /// Steering command for the car at `pose`.
+    pub fn steering(&self, pose: Pose, p: &CarParams) -> f64 {
+        // Project the rear axle onto the polyline: (segment, arc length).
+        let mut best = (0usize, 0.0f64, f64::INFINITY);
+        let mut s0 = 0.0;
+        let lens = &self.lens;
+        for i in 0..self.points.len() - 1 {
+            let (a, b) = (self.points[i], self.points[i + 1]);
+            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+            let len2 = dx * dx + dy * dy;
+            let len = lens[i];
+            let t = if len2 > 0.0 {
+                (((pose.x - a.0) * dx + (pose.y - a.1) * dy) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let (qx, qy) = (a.0 + t * dx, a.1 + t * dy);
+            let d2 = (pose.x - qx) * (pose.x - qx) + (pose.y - qy) * (pose.y - qy);
+            if d2 < best.2 {
+                best = (i, s0 + t * len, d2);
+            }
+            s0 += len;
+        }
+        let total = s0;
+        let target_s = best.1 + Self::LOOKAHEAD;
+        let goal = if target_s >= total {
+            let last = self.points[self.points.len() - 1];
+            let extra = target_s - total;
+            (
+                last.0 + extra * libm::cos(self.end_heading),
+                last.1 + extra * libm::sin(self.end_heading),
+            )
+        } else {
+            let mut s = 0.0;
+            let mut g = self.points[self.points.len() - 1];
+            for (i, len) in lens.iter().enumerate() {
+                if s + len >= target_s {
+                    let t = if *len > 0.0 {
+                        (target_s - s) / len
+                    } else {
+                        0.0
+                    };
+                    let (a, b) = (self.points[i], self.points[i + 1]);
+                    g = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
+                    break;
+                }
+                s += len;
+            }
+            g
+        };
+        let (gx, gy) = pose.to_local(goal.0, goal.1);
+        let d2 = gx * gx + gy * gy;
+        if d2 < 1e-12 {
+            return 0.0;
+        }
+        // Pure pursuit: curvature 2·y / d².
+        let k = 2.0 * gy / d2;
+        libm::atan(k * p.wheelbase)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use firmware_core::ActionIndex;
+    use firmware_core::lattice::trajectory;
+
+    #[test]
+    fn the_clearance_shortcut_gives_the_sampled_answer() {
+        let s = crate::world::registry::load_scenario("stairs-chairs").unwrap();
+        let car = CarParams::MUSHR;
+        let map = &s.map;
+        let step = map.resolution() / 2.0;
+        let nx = libm::ceil(car.length / step) as usize;
+        let ny = libm::ceil(car.width / step) as usize;
+        let sampled = |pose: Pose| {
+            let (sn, c) = (libm::sin(pose.theta), libm::cos(pose.theta));
+            let cx = pose.x + car.center_offset * c;
+            let cy = pose.y + car.center_offset * sn;
+            (0..=nx).any(|i| {
+                let u = -car.length / 2.0 + car.length * i as f64 / nx as f64;
+                (0..=ny).any(|j| {
+                    let v = -car.width / 2.0 + car.width * j as f64 / ny as f64;
+                    map.is_blocked(cx + u * c - v * sn, cy + u * sn + v * c)
+                })
+            })
+        };
+        let (mut hits, mut misses) = (0, 0);
+        for i in 0..170 {
+            for j in 0..120 {
+                for k in 0..3 {
+                    let pose = Pose {
+                        x: 0.1 * i as f64 + 0.013,
+                        y: 0.1 * j as f64 + 0.007,
+                        theta: 0.7 * k as f64,
+                    };
+                    let want = sampled(pose);
+                    assert_eq!(car.footprint_hits(map, pose), want, "{pose:?}");
+                    if want { hits += 1 } else { misses += 1 }
+                }
+            }
+        }
+        assert!(hits > 1000 && misses > 1000, "{hits} {misses}");
+    }
+
+    #[test]
+    fn the_car_follows_every_trajectory_closely() {
+        let p = CarParams::MUSHR;
+        let dt = 1.0 / p.physics_hz as f64;
+        for a in ActionIndex::all() {
+            let t = trajectory(a);
+            // Start already moving at the trajectory's speed with the first segment's steering,
+            // as in steady driving.
+            let mut car = CarState::at(Pose::default());
+            car.speed = t.speed as f64;
+            car.steering = libm::atan(t.segments[0].curvature as f64 * p.wheelbase);
+            let tr = Tracker::new(Pose::default(), t);
+            let steps = (t.length() as f64 / t.speed as f64 / dt).round() as usize;
+            for _ in 0..steps {
+                let d = tr.steering(car.pose, &p);
+                car.step(&p, d, tr.speed(), dt);
+            }
+            let e = t.end();
+            let err =
+                ((car.pose.x - e.x as f64).powi(2) + (car.pose.y - e.y as f64).powi(2)).sqrt();
+            assert!(err < 0.06, "{a}: end error {err} m");
+        }
+    }
+
+    #[test]
+    fn footprint_and_frames() {
+        let map = OccupancyGrid::from_fn(40, 40, 0.05, [0.0, 0.0, 0.0], |c, _| c >= 30);
+        let p = CarParams::MUSHR;
+        // Wall starts at x = 1.5; the footprint's front is 0.15 + 0.25 = 0.4 m ahead.
+        assert!(!p.footprint_hits(
+            &map,
+            Pose {
+                x: 1.05,
+                y: 1.0,
+                theta: 0.0
+            }
+        ));
+        assert!(p.footprint_hits(
+            &map,
+            Pose {
+                x: 1.12,
+                y: 1.0,
+                theta: 0.0
+            }
+        ));
+        let pose = Pose {
+            x: 1.0,
+            y: 2.0,
+            theta: 0.7,
+        };
+        let (wx, wy) = pose.to_world(0.3, -0.2);
+        let (lx, ly) = pose.to_local(wx, wy);
+        assert!((lx - 0.3).abs() < 1e-12 && (ly + 0.2).abs() < 1e-12);
+        assert!(
+            (wrap_angle(3.0 * std::f64::consts::PI).abs() - std::f64::consts::PI).abs() < 1e-12
+        );
+        assert!((wrap_angle(-7.0) - (-7.0 + 2.0 * std::f64::consts::PI)).abs() < 1e-12);
+    }
+}

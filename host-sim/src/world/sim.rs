@@ -1,0 +1,526 @@
+//! The world in motion: sensing (the [`Observation`] the car gets) and the episode (driving one
+//! control tick, collisions, stuck detection, resets and laps).
+//!
+//! # Sensing, in the car frame (rear axle, x forward, y left)
+//!
+//! * **Range scan**: 64 beams cast from the rear axle at the firmware's bearings
+//!   ([`beam_bearing`]) through the occupancy grid (DDA, unknown cells block), at most
+//!   [`SCAN_MAX_RANGE`] = 10 m.
+//! * **Semantic detections**: every object whose nearest point is within [`SENSOR_RANGE`] (5 m)
+//!   and in line of sight (the segment from the sensor to that point crosses no blocked cell
+//!   before its last [`LOS_SLACK_CELLS`] cells, so objects drawn as obstacles, a stairwell's
+//!   railing, remain visible); the [`MAX_OBJECTS`] nearest (ties by scenario order), each as the
+//!   disc of [`WorldObject::disc_seen_from`](crate::world::scenario::WorldObject::disc_seen_from).
+//! * **Path reference**: the path point 1 m (arc length) ahead of the car's projection onto the
+//!   path, with the path's heading there.
+//! * **Speed**: the car's forward speed.
+//!
+//! # The episode
+//!
+//! One [`Episode::drive`] is one control tick ([`TICK_SECONDS`] = 0.1 s): the chosen trajectory
+//! is fixed in the world at the current pose and tracked for [`PHYSICS_STEPS`] physics steps.
+//! The footprint is checked against the map after every physics step. The car is put back at
+//! the start, keeping the learner (the caller does not touch it), when:
+//!
+//! * its footprint touches an occupied or unknown cell (**collision**);
+//! * its progress along the path has not grown by [`PROGRESS_EPSILON`] for [`STUCK_TICKS`] ticks
+//!   (5 s, **stuck**), or it is more than [`LOST_DISTANCE`] from the path (**lost**);
+//! * the agent had no allowed action: the car stops, which is counted, and since a stopped car
+//!   sees the same blocked world again it is put back at once (**blocked**).
+//!
+//! Laps are counted by progress: every full path length of progress within an episode is a lap.
+//! On an open path, reaching its end counts a lap and starts the next one from the start.
+//!
+//! "The start" is the scenario's start pose, or the one an episode was given
+//! ([`Episode::starting_at`], the seeded jitter of [`crate::teach::experiment::StartJitter`]).
+//!
+//! The projection onto the path searches only 1 m behind to 2 m ahead of the previous one, so it
+//! cannot jump to a neighbouring hallway.
+
+use std::sync::Arc;
+
+use firmware_core::ActionIndex;
+use firmware_core::lattice::trajectory;
+use firmware_core::observation::{
+    MAX_OBJECTS, Observation, PathReference, SCAN_BEAMS, SCAN_MAX_RANGE, Scan, beam_bearing,
+};
+use firmware_core::observation::{ObjectList, SemanticObject};
+
+use crate::world::car::{CarParams, CarState, Pose, Tracker, wrap_angle};
+use crate::world::scenario::Scenario;
+
+/// Range of the semantic detector (m).
+pub const SENSOR_RANGE: f64 = 5.0;
+
+/// Line of sight ignores this many cells at the object's end (objects may be drawn as obstacles).
+pub const LOS_SLACK_CELLS: f64 = 1.5;
+
+/// The path reference is this far ahead along the path (m).
+pub const LOOKAHEAD: f64 = 1.0;
+
+/// Length of a control tick (s).
+pub const TICK_SECONDS: f64 = 0.1;
+
+/// Physics steps per control tick.
+pub const PHYSICS_STEPS: u32 = 10;
+
+/// Ticks without progress before the car counts as stuck (5 s).
+pub const STUCK_TICKS: u32 = 50;
+
+/// Progress (m) that resets the stuck counter.
+pub const PROGRESS_EPSILON: f64 = 0.1;
+
+/// Farther than this from the path (m), the car is lost.
+pub const LOST_DISTANCE: f64 = 2.0;
+
+/// Why the car was put back at the start.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ResetReason {
+    /// The footprint touched the map.
+    Collision,
+    /// No progress for [`STUCK_TICKS`] ticks.
+    Stuck,
+    /// Farther than [`LOST_DISTANCE`] from the path.
+    Lost,
+    /// The agent had no allowed action.
+    Blocked,
+    /// The end of an open path was reached (a lap, not a failure).
+    PathEnd,
+}
+
+impl ResetReason {
+    /// A short name for CSV files.
+    pub const fn name(self) -> &'static str {
+        match self {
+            ResetReason::Collision => "collision",
+            ResetReason::Stuck => "stuck",
+            ResetReason::Lost => "lost",
+            ResetReason::Blocked => "blocked",
+            ResetReason::PathEnd => "path-end",
+        }
+    }
+
+    /// The reason called `name` (see [`ResetReason::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        [
+            ResetReason::Collision,
+            ResetReason::Stuck,
+            ResetReason::Lost,
+            ResetReason::Blocked,
+            ResetReason::PathEnd,
+        ]
+        .into_iter()
+        .find(|r| r.name() == name)
+    }
+}
+
+/// What one tick of driving did.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TickResult {
+    /// The car was put back at the start, and why.
+    pub reset: Option<ResetReason>,
+    /// A lap was completed in this tick.
+    pub lap: bool,
+}
+
+/// The car in a scenario: state, progress along the path, laps.
+#[derive(Clone, Debug)]
+pub struct Episode {
+    scenario: Arc<Scenario>,
+    /// Where this episode starts and every reset returns (the scenario's start unless jittered).
+    start: Pose,
+    params: CarParams,
+    car: CarState,
+    /// Arc length of the car's projection onto the path.
+    s: f64,
+    /// Progress since the start of the episode (m, signed).
+    progress: f64,
+    best: f64,
+    since_progress: u32,
+    episode_laps: u32,
+    laps: u32,
+}
+
+impl Episode {
+    /// The car at the scenario's start.
+    pub fn new(scenario: Arc<Scenario>) -> Self {
+        let start = scenario.start;
+        Self::starting_at(scenario, start)
+    }
+
+    /// The car at `start` instead of the scenario's start; every reset returns there. The caller
+    /// checks that the pose is free (see [`crate::teach::experiment::StartJitter`]).
+    pub fn starting_at(scenario: Arc<Scenario>, start: Pose) -> Self {
+        let mut e = Self {
+            car: CarState::at(start),
+            start,
+            scenario,
+            params: CarParams::MUSHR,
+            s: 0.0,
+            progress: 0.0,
+            best: 0.0,
+            since_progress: 0,
+            episode_laps: 0,
+            laps: 0,
+        };
+        e.reset();
+        e
+    }
+
+    /// Back to the start (laps are kept).
+    pub fn reset(&mut self) {
+        self.car = CarState::at(self.start);
+        let st = self.start;
+        self.s = self.scenario.path.project((st.x, st.y)).0;
+        self.progress = 0.0;
+        self.best = 0.0;
+        self.since_progress = 0;
+        self.episode_laps = 0;
+    }
+
+    /// Where the episode starts.
+    pub fn start(&self) -> Pose {
+        self.start
+    }
+
+    /// The car's state.
+    pub fn car(&self) -> &CarState {
+        &self.car
+    }
+
+    /// Laps completed so far.
+    pub fn laps(&self) -> u32 {
+        self.laps
+    }
+
+    /// Progress along the path since the episode started (m).
+    pub fn progress(&self) -> f64 {
+        self.progress
+    }
+
+    /// The car's projection onto the path (m of arc length from the path's start).
+    pub fn station(&self) -> f64 {
+        self.s
+    }
+
+    /// How far along the path the car has come over the run (m): the laps it completed times
+    /// the path's length, plus its progress into the current lap (forward positive). A reset
+    /// puts the car back at the start of its lap, and its progress with it, so a car that keeps
+    /// being reset before a lap ends makes none.
+    pub fn path_progress(&self) -> f64 {
+        let length = self.scenario.path.length();
+        self.laps as f64 * length + (self.progress - self.episode_laps as f64 * length)
+    }
+
+    /// The scenario.
+    pub fn scenario(&self) -> &Arc<Scenario> {
+        &self.scenario
+    }
+
+    /// What the car senses now.
+    pub fn observe(&self) -> Observation {
+        observe(&self.scenario, &self.car, self.s)
+    }
+
+    /// Drives one control tick along `action`'s trajectory; `None` (nothing allowed) stops the
+    /// car and puts it back at the start.
+    pub fn drive(&mut self, action: Option<ActionIndex>) -> TickResult {
+        let Some(action) = action else {
+            self.reset();
+            return TickResult {
+                reset: Some(ResetReason::Blocked),
+                lap: false,
+            };
+        };
+        let tracker = Tracker::new(self.car.pose, trajectory(action));
+        let dt = TICK_SECONDS / PHYSICS_STEPS as f64;
+        for _ in 0..PHYSICS_STEPS {
+            let steer = tracker.steering(self.car.pose, &self.params);
+            self.car.step(&self.params, steer, tracker.speed(), dt);
+            if self
+                .params
+                .footprint_hits(&self.scenario.map, self.car.pose)
+            {
+                self.reset();
+                return TickResult {
+                    reset: Some(ResetReason::Collision),
+                    lap: false,
+                };
+            }
+        }
+        let path = &self.scenario.path;
+        let p = (self.car.pose.x, self.car.pose.y);
+        let (s, d) = path.project_near(p, self.s, 1.0, 2.0);
+        self.progress += path.delta(self.s, s);
+        self.s = s;
+        let mut lap = false;
+        if path.is_closed() {
+            if self.progress >= (self.episode_laps + 1) as f64 * path.length() {
+                self.episode_laps += 1;
+                self.laps += 1;
+                lap = true;
+            }
+        } else if s >= path.length() - 0.25 {
+            self.laps += 1;
+            self.reset();
+            return TickResult {
+                reset: Some(ResetReason::PathEnd),
+                lap: true,
+            };
+        }
+        if d > LOST_DISTANCE {
+            self.reset();
+            return TickResult {
+                reset: Some(ResetReason::Lost),
+                lap,
+            };
+        }
+        if self.progress > self.best + PROGRESS_EPSILON {
+            self.best = self.progress;
+            self.since_progress = 0;
+        } else {
+            self.since_progress += 1;
+            if self.since_progress >= STUCK_TICKS {
+                self.reset();
+                return TickResult {
+                    reset: Some(ResetReason::Stuck),
+                    lap,
+                };
+            }
+        }
+        TickResult { reset: None, lap }
+    }
+}
+
+/// The observation of a car in `scenario` whose projection onto the path is at arc length `s`,
+/// quantized to the protocol's wire steps (`protocol::quantize::quantize`: ranges in
+/// centimetres, lengths in millimetres, the heading in 10⁻⁴ rad), so that the learner and the
+/// teacher see the same numbers in process as over the link.
+pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
+    let pose = car.pose;
+    let map = &scenario.map;
+    let mut scan = Scan::EMPTY;
+    for j in 0..SCAN_BEAMS {
+        let a = pose.theta + beam_bearing(j) as f64;
+        let r = map.raycast(pose.x, pose.y, a, SCAN_MAX_RANGE as f64);
+        scan.ranges[j] = (r as f32).min(SCAN_MAX_RANGE);
+    }
+    let objects = detect(scenario, pose);
+    let (rx, ry, rh) = scenario.path.point_at(s + LOOKAHEAD);
+    let (lx, ly) = pose.to_local(rx, ry);
+    let pi = std::f32::consts::PI;
+    let heading = (wrap_angle(rh - pose.theta) as f32).clamp(-pi, pi);
+    protocol::quantize::quantize(&Observation {
+        scan,
+        objects,
+        reference: PathReference {
+            x: lx as f32,
+            y: ly as f32,
+            heading,
+        },
+        speed: car.speed as f32,
+    })
+}
+
+/// The semantic detections from `pose`.
+pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
+    let p = (pose.x, pose.y);
+    let slack = LOS_SLACK_CELLS * scenario.map.resolution();
+    let mut seen: Vec<(f64, usize)> = Vec::new();
+    for (i, o) in scenario.objects.iter().enumerate() {
+        let (q, d) = o.nearest_point(p);
+        if d <= SENSOR_RANGE && scenario.map.line_of_sight(p, q, slack) {
+            seen.push((d, i));
+        }
+    }
+    seen.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let mut list = ObjectList::new();
+    for &(_, i) in seen.iter().take(MAX_OBJECTS) {
+        let o = &scenario.objects[i];
+        let (cx, cy, r) = o.disc_seen_from(p);
+        let (lx, ly) = pose.to_local(cx, cy);
+        let obj = SemanticObject {
+            class: o.class,
+            x: lx as f32,
+            y: ly as f32,
+            radius: r as f32,
+        };
+        // At most MAX_OBJECTS are taken, so the list has room.
+        let _ = list.push(obj);
+    }
+    list
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::map::OccupancyGrid;
+    use crate::world::path::RefPath;
+    use crate::world::scenario::{Shape, WorldObject};
+    use crate::world::teacher::{TeacherSpec, preset};
+    use firmware_core::observation::SemanticClass;
+
+    /// A 10 m × 6 m room (0.05 m cells) with a wall across x = 6 from y = 0 to y = 4, a path
+    /// along y = 1 and `objects`.
+    fn world(objects: Vec<WorldObject>) -> Scenario {
+        let map = OccupancyGrid::from_fn(200, 120, 0.05, [0.0, 0.0, 0.0], |c, r| {
+            c == 0 || r == 0 || c == 199 || r == 119 || (c == 120 && r < 80)
+        });
+        Scenario {
+            name: "room".into(),
+            description: String::new(),
+            source: Default::default(),
+            map: Arc::new(map),
+            path: RefPath::new(vec![(1.0, 1.0), (5.0, 1.0)], false).unwrap(),
+            start: Pose {
+                x: 1.0,
+                y: 1.0,
+                theta: 0.0,
+            },
+            objects,
+            teacher: TeacherSpec::from_preset(preset("doors").unwrap()),
+        }
+    }
+
+    fn chair(x: f64, y: f64) -> WorldObject {
+        WorldObject {
+            class: SemanticClass::Chair,
+            x,
+            y,
+            shape: Shape::Disc { radius: 0.2 },
+        }
+    }
+
+    #[test]
+    fn the_scan_sees_the_walls_in_the_car_frame() {
+        let s = world(vec![]);
+        let car = CarState::at(Pose {
+            x: 2.0,
+            y: 1.0,
+            theta: 0.0,
+        });
+        let obs = observe(&s, &car, 1.0);
+        obs.validate().unwrap();
+        for j in 0..SCAN_BEAMS {
+            let b = beam_bearing(j) as f64;
+            let (c, sn) = (b.cos(), b.sin());
+            // Expected: the nearest of the walls x = 0.05, x = 6.0 (for y < 4), y = 0.05, y = 5.95.
+            let mut want = f64::INFINITY;
+            if c > 0.0 {
+                let t = (6.0 - 2.0) / c;
+                if 1.0 + t * sn < 4.0 {
+                    want = want.min(t);
+                }
+            }
+            if c < 0.0 {
+                want = want.min((0.05 - 2.0) / c);
+            }
+            if sn < 0.0 {
+                want = want.min((0.05 - 1.0) / sn);
+            }
+            if sn > 0.0 {
+                want = want.min((5.95 - 1.0) / sn);
+            }
+            let want = want.min(SCAN_MAX_RANGE as f64);
+            let got = obs.scan.ranges[j] as f64;
+            assert!((got - want).abs() < 0.08, "beam {j}: {got} vs {want}");
+        }
+        // The path reference is 1 m ahead along the path.
+        assert!((obs.reference.x - 1.0).abs() < 1e-6 && obs.reference.y.abs() < 1e-6);
+        assert_eq!(obs.reference.heading, 0.0);
+    }
+
+    #[test]
+    fn detections_need_range_and_line_of_sight_and_keep_the_nearest_eight() {
+        // Behind the wall at x = 6 (y < 4): invisible. Beyond 5 m: invisible.
+        let mut objects = vec![chair(7.0, 1.0), chair(1.5, 5.9 - 0.2)];
+        for k in 0..9 {
+            objects.push(chair(2.5 + 0.3 * k as f64, 2.5));
+        }
+        let s = world(objects);
+        let seen = detect(
+            &s,
+            Pose {
+                x: 2.0,
+                y: 1.0,
+                theta: std::f64::consts::FRAC_PI_2,
+            },
+        );
+        assert_eq!(seen.len(), MAX_OBJECTS);
+        // Nearest first; in the car frame (facing +y), x forward = world y, y left = −world x.
+        let d: Vec<f32> = seen
+            .iter()
+            .map(|o| (o.x * o.x + o.y * o.y).sqrt())
+            .collect();
+        assert!(d.windows(2).all(|w| w[0] <= w[1]), "{d:?}");
+        assert!((seen[0].x - 1.5).abs() < 1e-6 && (seen[0].y + 0.5).abs() < 1e-6);
+        // Only the row of nine, minus its farthest one.
+        assert!(seen.iter().all(|o| (o.x - 1.5).abs() < 1e-6));
+        let behind_wall = detect(
+            &s,
+            Pose {
+                x: 5.5,
+                y: 1.0,
+                theta: 0.0,
+            },
+        );
+        assert!(
+            behind_wall.iter().all(|o| o.x < 1.0),
+            "the chair behind the wall is hidden"
+        );
+        let beyond = world(vec![chair(8.0, 5.0)]);
+        assert!(
+            detect(
+                &beyond,
+                Pose {
+                    x: 1.0,
+                    y: 1.0,
+                    theta: 0.0
+                }
+            )
+            .is_empty()
+        );
+    }
+
+    #[test]
+    fn driving_into_a_wall_resets_and_blocked_resets() {
+        let mut e = Episode::new(Arc::new(world(vec![])));
+        // Straight ahead along y = 1: the wall at x = 6 comes after about 4.5 m of driving.
+        let mut reset = None;
+        for _ in 0..100 {
+            let r = e.drive(ActionIndex::new(0));
+            if r.reset.is_some() {
+                reset = r.reset;
+                break;
+            }
+        }
+        assert_eq!(
+            reset,
+            Some(ResetReason::PathEnd),
+            "the open path ends at x = 5 first"
+        );
+        assert_eq!(e.laps(), 1);
+        let mut e = Episode::new(Arc::new(world(vec![])));
+        // Circling right from y = 1 hits the south wall (y = 0.05) within a turn.
+        let right = ActionIndex::new(8).unwrap();
+        assert!(firmware_core::lattice::trajectory(right).end().y < 0.0);
+        let mut got = None;
+        for _ in 0..50 {
+            if let Some(r) = e.drive(Some(right)).reset {
+                got = Some(r);
+                break;
+            }
+        }
+        assert_eq!(got, Some(ResetReason::Collision));
+        assert_eq!(
+            e.car().pose,
+            Pose {
+                x: 1.0,
+                y: 1.0,
+                theta: 0.0
+            },
+            "back at the start"
+        );
+        assert_eq!(e.drive(None).reset, Some(ResetReason::Blocked));
+    }
+}
