@@ -7,33 +7,60 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
+use nalgebra::{Isometry2, Point2, Translation2, UnitComplex, Vector2};
+
 #[path = "src/lattice/params.rs"]
 #[allow(dead_code, unreachable_pub)]
 mod params;
 
 use params::*;
 
+/// A pose of the car's rear axle in the frame of the trajectory's start: where it is, and its
+/// heading (tracked as an angle, the sum of curvature × arc length, and turned into a rotation by
+/// `libm`, never by the platform's `sin`, so that every build host makes the same tables).
 #[derive(Clone, Copy)]
 struct Pose {
-    x: f64,
-    y: f64,
-    theta: f64,
+    at: Point2<f64>,
+    heading: f64,
 }
 
-/// Advances `p` along an arc of curvature `k` by `s` metres (exact closed form).
+impl Pose {
+    const START: Self = Self {
+        at: Point2::new(0.0, 0.0),
+        heading: 0.0,
+    };
+
+    /// The rotation of the heading.
+    fn rotation(&self) -> UnitComplex<f64> {
+        UnitComplex::from_cos_sin_unchecked(libm::cos(self.heading), libm::sin(self.heading))
+    }
+
+    /// The pose as an isometry of the start's frame.
+    fn isometry(&self) -> Isometry2<f64> {
+        Isometry2::from_parts(Translation2::from(self.at.coords), self.rotation())
+    }
+}
+
+/// The unit vector at right angles to heading `theta`, pointing away from the centre of a left
+/// turn: `(sin θ, −cos θ)`.
+fn normal(theta: f64) -> Vector2<f64> {
+    Vector2::new(libm::sin(theta), -libm::cos(theta))
+}
+
+/// Advances `p` along an arc of curvature `k` by `s` metres (exact closed form): the chord of an
+/// arc from heading θ₁ to θ₂ = θ₁ + k·s is `(n(θ₂) − n(θ₁)) / k`, a straight step is `s` along
+/// the heading.
 fn arc(p: Pose, k: f64, s: f64) -> Pose {
     if k.abs() < 1e-12 {
         Pose {
-            x: p.x + s * libm::cos(p.theta),
-            y: p.y + s * libm::sin(p.theta),
-            theta: p.theta,
+            at: p.at + p.rotation() * Vector2::new(s, 0.0),
+            heading: p.heading,
         }
     } else {
-        let theta = p.theta + k * s;
+        let heading = p.heading + k * s;
         Pose {
-            x: p.x + (libm::sin(theta) - libm::sin(p.theta)) / k,
-            y: p.y - (libm::cos(theta) - libm::cos(p.theta)) / k,
-            theta,
+            at: p.at + (normal(heading) - normal(p.heading)) / k,
+            heading,
         }
     }
 }
@@ -54,11 +81,7 @@ impl Traj {
 
     /// Pose after `s` metres.
     fn pose_at(&self, s: f64) -> Pose {
-        let mut p = Pose {
-            x: 0.0,
-            y: 0.0,
-            theta: 0.0,
-        };
+        let mut p = Pose::START;
         let mut left = s;
         for &(k, len) in &self.segments {
             let step = left.min(len);
@@ -180,9 +203,9 @@ fn main() {
             write!(
                 poses,
                 "Pose {{ x: {}, y: {}, theta: {} }}, ",
-                f(p.x),
-                f(p.y),
-                f(p.theta)
+                f(p.at.x),
+                f(p.at.y),
+                f(p.heading)
             )
             .unwrap();
         }
@@ -192,12 +215,12 @@ fn main() {
         counts.push(count);
         for (k, slot) in idx.iter_mut().enumerate() {
             let s = SAMPLE_SPACING as f64 * (k.min(count - 1) + 1) as f64;
-            let p = t.pose_at(s);
-            let c = FOOTPRINT_CENTER_OFFSET as f64;
-            let pt = (
-                (p.x + c * libm::cos(p.theta)) as f32,
-                (p.y + c * libm::sin(p.theta)) as f32,
-            );
+            // The footprint's centre, FOOTPRINT_CENTER_OFFSET ahead of the rear axle.
+            let centre = t
+                .pose_at(s)
+                .isometry()
+                .transform_point(&Point2::new(FOOTPRINT_CENTER_OFFSET as f64, 0.0));
+            let pt = (centre.x as f32, centre.y as f32);
             write!(centers, "[{:?}, {:?}], ", pt.0, pt.1).unwrap();
             *slot = match points
                 .iter()
@@ -264,16 +287,124 @@ fn main() {
     )
     .unwrap();
 
-    // Unique sample points, their distance from the sensor, and the window of beams that can come
-    // within OBSTACLE_CLIP of them: a point on the ray at bearing β is at least ρ·sin|Δβ| from a
-    // sample at range ρ and bearing α (|Δβ| ≤ 90°), at least ρ otherwise. The window adds 0.01 rad
-    // so that a beam left out is farther than OBSTACLE_CLIP by a margin no f32 rounding can eat.
+    // Clusters of nearby samples, which the evaluator prunes together: the samples at the same arc
+    // length of trajectories that share their start (the first segments from the origin, the
+    // creep arcs, the second segments from each first segment's end) lie on a short arc; each such
+    // ring is halved until every sample is within CLUSTER_SPREAD of its cluster's centre.
+    let mut ring_of: Vec<Option<(i32, usize)>> = vec![None; points.len()];
+    for (a, t) in all.iter().enumerate() {
+        for (k, &u) in sample_of[a][..counts[a]].iter().enumerate() {
+            let key = if t.creep || k < SAMPLES / 2 {
+                (i32::MAX, k)
+            } else {
+                (t.levels[0], k)
+            };
+            ring_of[u] = Some(ring_of[u].map_or(
+                key,
+                |old: (i32, usize)| {
+                    if key.1 < old.1 { key } else { old }
+                },
+            ));
+        }
+    }
+    let mut rings: Vec<((i32, usize), Vec<usize>)> = Vec::new();
+    for (u, key) in ring_of.iter().enumerate() {
+        let key = key.expect("every sample belongs to a trajectory");
+        match rings.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, members)) => members.push(u),
+            None => rings.push((key, vec![u])),
+        }
+    }
+    let bounds = |members: &[usize]| {
+        let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+        for &u in members {
+            let q = [points[u].0 as f64, points[u].1 as f64];
+            for i in 0..2 {
+                lo[i] = lo[i].min(q[i]);
+                hi[i] = hi[i].max(q[i]);
+            }
+        }
+        let centre = [
+            ((lo[0] + hi[0]) / 2.0) as f32 as f64,
+            ((lo[1] + hi[1]) / 2.0) as f32 as f64,
+        ];
+        let spread = members
+            .iter()
+            .map(|&u| {
+                libm::hypot(
+                    points[u].0 as f64 - centre[0],
+                    points[u].1 as f64 - centre[1],
+                )
+            })
+            .fold(0.0, f64::max);
+        (
+            centre,
+            spread,
+            if hi[0] - lo[0] >= hi[1] - lo[1] { 0 } else { 1 },
+        )
+    };
+    let mut clusters: Vec<Vec<usize>> = Vec::new();
+    let mut todo: Vec<Vec<usize>> = rings.into_iter().map(|(_, m)| m).collect();
+    while let Some(mut members) = todo.pop() {
+        let (_, spread, axis) = bounds(&members);
+        if spread <= CLUSTER_SPREAD as f64 || members.len() == 1 {
+            clusters.push(members);
+            continue;
+        }
+        let coordinate = |u: usize| if axis == 0 { points[u].0 } else { points[u].1 };
+        members.sort_by(|&a, &b| coordinate(a).total_cmp(&coordinate(b)).then(a.cmp(&b)));
+        let upper = members.split_off(members.len() / 2);
+        todo.push(upper);
+        todo.push(members);
+    }
+    // Clusters by increasing distance of their centre from the sensor; samples renumbered cluster
+    // by cluster (in their first-appearance order within a cluster).
+    let rho_of = |c: [f64; 2]| libm::hypot(c[0], c[1]);
+    for members in &mut clusters {
+        members.sort_unstable();
+    }
+    clusters.sort_by(|a, b| {
+        rho_of(bounds(a).0)
+            .total_cmp(&rho_of(bounds(b).0))
+            .then(a[0].cmp(&b[0]))
+    });
+    let order: Vec<usize> = clusters.iter().flatten().copied().collect();
+    assert_eq!(order.len(), points.len());
+    let mut renumber = vec![0usize; points.len()];
+    for (new, &old) in order.iter().enumerate() {
+        renumber[old] = new;
+    }
+    for idx in &mut sample_of {
+        for u in idx.iter_mut() {
+            *u = renumber[*u];
+        }
+    }
+    let cluster_info: Vec<([f64; 2], f64)> = clusters
+        .iter()
+        .map(|m| {
+            let (c, spread, _) = bounds(m);
+            (c, spread)
+        })
+        .collect();
+    let points: Vec<(f32, f32)> = order.iter().map(|&old| points[old]).collect();
+    let mut trajectories_of = vec![0u64; points.len()];
+    for (a, idx) in sample_of.iter().enumerate() {
+        for &u in &idx[..counts[a]] {
+            trajectories_of[u] |= 1u64 << a;
+        }
+    }
+
     writeln!(
         out,
         "/// Number of distinct footprint-centre sample points over the whole lattice."
     )
     .unwrap();
     writeln!(out, "pub const UNIQUE_SAMPLES: usize = {};", points.len()).unwrap();
+    writeln!(
+        out,
+        "/// The distinct sample points, cluster by cluster (see [`CLUSTERS`])."
+    )
+    .unwrap();
     writeln!(
         out,
         "pub(crate) static SAMPLE_POINTS: [[f32; 2]; UNIQUE_SAMPLES] = [{}];",
@@ -285,46 +416,9 @@ fn main() {
         )
     )
     .unwrap();
-    let mut rho = Vec::new();
-    let mut windows = Vec::new();
-    let mut total = 0usize;
-    for &(x, y) in &points {
-        let (x, y) = (x as f64, y as f64);
-        let r = libm::hypot(x, y);
-        let alpha = libm::atan2(y, x);
-        rho.push(f(r));
-        let clip = OBSTACLE_CLIP as f64;
-        // A beam more than 90° from the sample's bearing is at least its own range away
-        // (ρ² + r² − 2ρr·cos Δ ≥ r²): near samples take the half plane, and the evaluator adds the
-        // beams shorter than the clip, whatever their bearing, at run time.
-        let h = if r <= clip * 1.001 {
-            std::f64::consts::FRAC_PI_2 + 0.01
-        } else {
-            libm::asin(clip / r) + 0.01
-        };
-        let beams: Vec<usize> = {
-            let inside: Vec<usize> = (0..SCAN_BEAMS)
-                .filter(|&j| {
-                    let mut d = bearing(j) - alpha;
-                    while d > std::f64::consts::PI {
-                        d -= 2.0 * std::f64::consts::PI;
-                    }
-                    while d < -std::f64::consts::PI {
-                        d += 2.0 * std::f64::consts::PI;
-                    }
-                    d.abs() <= h
-                })
-                .collect();
-            assert!(!inside.is_empty() && inside.len() <= SCAN_BEAMS / 2 + 2);
-            inside
-        };
-        let mask: u64 = beams.iter().fold(0u64, |m, &j| m | 1u64 << j);
-        total += beams.len();
-        windows.push(format!("{mask:#018x}"));
-    }
     let max_rho = points
         .iter()
-        .map(|p| libm::hypot(p.0 as f64, p.1 as f64))
+        .map(|&p| rho_of([p.0 as f64, p.1 as f64]))
         .fold(0.0, f64::max);
     writeln!(
         out,
@@ -332,43 +426,245 @@ fn main() {
     )
     .unwrap();
     writeln!(out, "pub const MAX_SAMPLE_RHO: f32 = {};", f(max_rho)).unwrap();
-    let mut by_rho: Vec<usize> = (0..points.len()).collect();
-    by_rho.sort_by(|&a, &b| {
-        let r = |i: usize| libm::hypot(points[i].0 as f64, points[i].1 as f64);
-        r(a).total_cmp(&r(b)).then(a.cmp(&b))
-    });
     writeln!(
         out,
-        "/// Distinct samples in increasing distance from the sensor."
+        "/// Per distinct sample: the trajectories it belongs to, one bit per action."
     )
     .unwrap();
     writeln!(
         out,
-        "pub(crate) static SAMPLES_BY_RHO: [u16; UNIQUE_SAMPLES] = [{}];",
-        list(by_rho.iter().map(|i| i.to_string()).collect())
+        "pub(crate) static SAMPLE_TRAJECTORIES: [u64; UNIQUE_SAMPLES] = [{}];",
+        list(
+            trajectories_of
+                .iter()
+                .map(|m| format!("{m:#018x}"))
+                .collect()
+        )
+    )
+    .unwrap();
+
+    // For each cluster and each of two distances d (the collision radius, the obstacle clip), the
+    // beams whose scan point may come within d of one of its samples, i.e. within d + spread of
+    // its centre: a window of bearings and a band of range bins (`RANGE_BIN_WIDTH` wide). A point
+    // on the ray at bearing β is at least ρ·sin|Δβ| from a centre at range ρ and bearing α when
+    // |Δβ| ≤ 90°, and at least ρ beyond, so the window is |Δβ| ≤ asin(d'/ρ) for d' = d + spread
+    // (the half plane for a centre nearer than d'; the evaluator adds the beams shorter than d',
+    // whatever their bearing), widened by 0.01 rad so that no f32 rounding can matter. A point
+    // whose range is not within d' of ρ is farther than d': the band holds the bins that meet
+    // [ρ − d' − REACH_MARGIN, ρ + d' + REACH_MARGIN].
+    let bin_width = RANGE_BIN_WIDTH as f64;
+    let margin = REACH_MARGIN as f64;
+    let max_spread = cluster_info.iter().map(|c| c.1).fold(0.0, f64::max);
+    assert!(max_spread <= CLUSTER_SPREAD as f64 || clusters.iter().any(|m| m.len() == 1));
+    let range_bins =
+        ((max_rho + OBSTACLE_CLIP as f64 + max_spread + margin) / bin_width).ceil() as usize;
+    writeln!(
+        out,
+        "/// Number of range bins the evaluator sorts the beams into: enough for every cluster's reach."
+    )
+    .unwrap();
+    writeln!(out, "pub(crate) const RANGE_BINS: usize = {range_bins};").unwrap();
+    let reach = |c: [f64; 2], d: f64| {
+        let r = rho_of(c);
+        let alpha = libm::atan2(c[1], c[0]);
+        let h = if r <= d * 1.001 {
+            std::f64::consts::FRAC_PI_2 + 0.01
+        } else {
+            libm::asin(d / r) + 0.01
+        };
+        let beams: Vec<usize> = (0..SCAN_BEAMS)
+            .filter(|&j| {
+                let mut delta = bearing(j) - alpha;
+                while delta > std::f64::consts::PI {
+                    delta -= 2.0 * std::f64::consts::PI;
+                }
+                while delta < -std::f64::consts::PI {
+                    delta += 2.0 * std::f64::consts::PI;
+                }
+                delta.abs() <= h
+            })
+            .collect();
+        assert!(!beams.is_empty() && beams.len() <= SCAN_BEAMS / 2 + 2);
+        let window: u64 = beams.iter().fold(0u64, |m, &j| m | 1u64 << j);
+        let lo = ((r - d - margin).max(0.0) / bin_width).floor() as usize;
+        let hi = (((r + d + margin) / bin_width).ceil() as usize).min(range_bins);
+        assert!(lo < hi && hi <= u8::MAX as usize);
+        (
+            beams.len(),
+            format!(
+                "Reach {{ window: [{:#010x}, {:#010x}], bins: [{lo}, {hi}] }}",
+                window as u32,
+                (window >> 32) as u32
+            ),
+        )
+    };
+    let mut window_pairs = 0usize;
+    let mut entries = Vec::new();
+    let mut start = 0usize;
+    for (members, &(centre, spread)) in clusters.iter().zip(cluster_info.iter()) {
+        // Rounded up, so that every member is within `spread` of the f32 centre in f32 too.
+        let spread = (spread * (1.0 + 1e-6) + 1e-6) as f32;
+        let spread = if (spread as f64) < 0.0 { 0.0 } else { spread };
+        let (pairs, clip) = reach(centre, OBSTACLE_CLIP as f64 + spread as f64);
+        window_pairs += pairs * members.len();
+        let end = start + members.len();
+        let trajectories = (start..end).fold(0u64, |m, u| m | trajectories_of[u]);
+        entries.push(format!(
+            "Cluster {{ centre: [{:?}, {:?}], spread: {:?}, samples: [{start}, {end}], trajectories: {trajectories:#018x}, clip: {clip} }}",
+            centre[0] as f32, centre[1] as f32, spread
+        ));
+        start = end;
+    }
+    writeln!(
+        out,
+        "/// Largest distance of a sample from its cluster's centre (m)."
     )
     .unwrap();
     writeln!(
         out,
-        "pub(crate) static SAMPLE_RHO: [f32; UNIQUE_SAMPLES] = [{}];",
-        list(rho)
+        "pub(crate) const MAX_CLUSTER_SPREAD: f32 = {};",
+        f(max_spread * (1.0 + 1e-6) + 1e-6)
+    )
+    .unwrap();
+    writeln!(out, "/// Number of sample clusters.").unwrap();
+    writeln!(
+        out,
+        "pub(crate) const CLUSTER_COUNT: usize = {};",
+        clusters.len()
     )
     .unwrap();
     writeln!(
         out,
-        "/// Number of (sample, beam) pairs in all the windows together."
-    )
-    .unwrap();
-    writeln!(out, "pub const WINDOW_PAIRS: usize = {total};").unwrap();
-    writeln!(
-        out,
-        "pub(crate) static SAMPLE_WINDOW: [u64; UNIQUE_SAMPLES] = [{}];",
-        list(windows)
+        "/// The sample clusters, by increasing distance of their centre from the sensor."
     )
     .unwrap();
     writeln!(
         out,
-        "pub(crate) static SAMPLE_OF: [[u16; {SAMPLES}]; crate::MAX_ACTIONS] = [{}];",
+        "pub(crate) static CLUSTERS: [Cluster; CLUSTER_COUNT] = [{}];",
+        list(entries)
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// Number of (sample, beam) pairs in the clusters' windows of the obstacle clip."
+    )
+    .unwrap();
+    writeln!(out, "pub const WINDOW_PAIRS: usize = {window_pairs};").unwrap();
+    // Sums along trajectories share their starts: cruise trajectories with the same first
+    // curvature share their first samples (all but the last of the first segment: that one lies a
+    // hair into the second segment, f32 spacing times five being just above 0.5 m). Each
+    // trajectory's sum is then a shared head (none for creep) and its own tail, added in the same
+    // order as one pass along it.
+    let mut heads: Vec<(i32, Vec<usize>)> = Vec::new();
+    for (a, t) in all.iter().enumerate() {
+        if t.creep {
+            continue;
+        }
+        let idx = &sample_of[a][..counts[a]];
+        match heads.iter_mut().find(|(l, _)| *l == t.levels[0]) {
+            Some((_, head)) => {
+                let common = head.iter().zip(idx).take_while(|(x, y)| x == y).count();
+                head.truncate(common);
+            }
+            None => heads.push((t.levels[0], idx.to_vec())),
+        }
+    }
+    let head_len = heads.iter().map(|(_, h)| h.len()).min().unwrap_or(0);
+    assert!(
+        head_len > 0,
+        "cruise trajectories share their first samples"
+    );
+    for (_, head) in &mut heads {
+        head.truncate(head_len);
+    }
+    // Creep trajectories take an empty head; short tails are padded. Both refer to the sample
+    // index `PAD_SAMPLE`, the last slot of the evaluator's per-sample arrays (a power of two long),
+    // whose clearance it keeps at 0: adding it changes no sum.
+    let pad = points.len().next_power_of_two() - 1;
+    assert!(pad >= points.len());
+    writeln!(
+        out,
+        "/// The unused sample slot that pads heads and tails (its clearance stays 0)."
+    )
+    .unwrap();
+    writeln!(out, "pub(crate) const PAD_SAMPLE: usize = {pad};").unwrap();
+    heads.push((i32::MIN, vec![pad; head_len]));
+    let tail_len = SAMPLES - head_len;
+    let mut head_of = Vec::new();
+    let mut tails = Vec::new();
+    let mut scales = Vec::new();
+    for (a, t) in all.iter().enumerate() {
+        let idx = &sample_of[a][..counts[a]];
+        let (head, mut tail) = if t.creep {
+            (heads.len() - 1, idx.to_vec())
+        } else {
+            let h = heads
+                .iter()
+                .position(|(l, _)| *l == t.levels[0])
+                .expect("every cruise trajectory has a head");
+            assert_eq!(heads[h].1, idx[..head_len]);
+            (h, idx[head_len..].to_vec())
+        };
+        assert!(!tail.is_empty() && tail.len() <= tail_len);
+        tail.resize(tail_len, pad);
+        head_of.push(head);
+        tails.push(tail);
+        scales.push(f((SAMPLES / counts[a]) as f64));
+    }
+    let indices = |v: &[usize]| format!("[{}]", list(v.iter().map(|i| i.to_string()).collect()));
+    writeln!(
+        out,
+        "/// Number of shared heads: the cruise family's first curvatures, and an empty one."
+    )
+    .unwrap();
+    writeln!(out, "pub(crate) const HEAD_COUNT: usize = {};", heads.len()).unwrap();
+    writeln!(out, "/// Samples in a head.").unwrap();
+    writeln!(out, "pub(crate) const HEAD_LEN: usize = {head_len};").unwrap();
+    writeln!(out, "/// Samples in a tail (padded).").unwrap();
+    writeln!(out, "pub(crate) const TAIL_LEN: usize = {tail_len};").unwrap();
+    writeln!(
+        out,
+        "/// The samples of each head, in order along it (the last one empty: padding only)."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static HEADS: [[u16; HEAD_LEN]; HEAD_COUNT] = [{}];",
+        list(heads.iter().map(|(_, h)| indices(h)).collect())
+    )
+    .unwrap();
+    writeln!(out, "/// Per trajectory: its head in `HEADS`.").unwrap();
+    writeln!(
+        out,
+        "pub(crate) static HEAD_OF: [u8; crate::MAX_ACTIONS] = [{}];",
+        list(head_of.iter().map(|h| h.to_string()).collect())
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// Per trajectory: its samples after its head, in order, padded with `PAD_SAMPLE`."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static TAIL_OF: [[u16; TAIL_LEN]; crate::MAX_ACTIONS] = [{}];",
+        list(tails.iter().map(|t| indices(t)).collect())
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// Per trajectory: `SAMPLES` over its number of samples, which scales its sums to ten samples."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static ROW_SCALE: [f32; crate::MAX_ACTIONS] = [{}];",
+        list(scales)
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "#[cfg(test)]\npub(crate) static SAMPLE_OF: [[u16; {SAMPLES}]; crate::MAX_ACTIONS] = [{}];",
         list(
             sample_of
                 .iter()
@@ -385,7 +681,7 @@ fn main() {
     .unwrap();
     writeln!(
         out,
-        "pub(crate) static SAMPLE_COUNT: [u8; crate::MAX_ACTIONS] = [{}];",
+        "#[cfg(test)]\npub(crate) static SAMPLE_COUNT: [u8; crate::MAX_ACTIONS] = [{}];",
         list(counts.iter().map(|c| c.to_string()).collect())
     )
     .unwrap();

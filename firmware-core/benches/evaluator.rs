@@ -78,7 +78,8 @@ fn bench(c: &mut Criterion) {
         let mut table = FeatureTable::ZERO;
         group.bench_with_input(BenchmarkId::new("evaluate+select", name), &obs, |b, obs| {
             b.iter(|| {
-                let mask = evaluator.evaluate(black_box(obs), &mut table).unwrap();
+                let obs = black_box(obs).check().unwrap();
+                let mask = evaluator.evaluate(obs, &mut table);
                 learner.select(&table, mask)
             })
         });

@@ -1,5 +1,7 @@
-//! `cargo bench -p firmware-core --bench learner`: the policy's select over 64 actions and one
-//! learning step (pseudo-loss + surrogate + update) per feedback kind and learner.
+//! `cargo bench -p firmware-core --bench learner`: the policy's select over 64 actions, one
+//! learning step (pseudo-loss + surrogate + update) per feedback kind and learner, and the
+//! learner's round (select + update, 64 actions, the default learner) beside its own floor, the
+//! 64 × 6 dot products of the weights with the table, in the same run (group `round`).
 
 use std::hint::black_box;
 
@@ -7,7 +9,7 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use firmware_core::observation::PathReference;
 use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, Feature, FeatureTable, Feedback, Learner, LearnerKind,
-    LearnerParams, OnlineLearner, PreferenceFeedback, Round, SemanticFeedback, policy,
+    LearnerParams, OnlineLearner, PreferenceFeedback, Round, SemanticFeedback, dot, policy,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -99,5 +101,63 @@ fn bench_update(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench_select, bench_update);
+/// The round the car runs when a correction arrives for the tick it just acted in: select over
+/// 64 actions, then one update, with the default learner (averaged OGD); and in the same group,
+/// the 64 × 6 dot products of the acting weights with the table that any round must do once.
+fn bench_round(c: &mut Criterion) {
+    let t = table(3);
+    let a = |i| ActionIndex::new(i).unwrap();
+    let learner = Learner::new(
+        LearnerParams::default()
+            .with_initial([0.3, -0.2, 0.9, 0.1, -0.7, 0.4])
+            .check()
+            .unwrap(),
+    );
+    let mut group = c.benchmark_group("round");
+    group.bench_function("dot-products", |b| {
+        b.iter(|| {
+            let w = black_box(learner.weights());
+            let mut sum = 0.0f32;
+            for row in black_box(&t).rows() {
+                sum += dot(w, row);
+            }
+            sum
+        })
+    });
+    let feedbacks: [(&str, Feedback); 3] = [
+        ("action", ActionFeedback { action: a(17) }.into()),
+        (
+            "preference",
+            PreferenceFeedback {
+                preferred: a(17),
+                other: a(40),
+            }
+            .into(),
+        ),
+        (
+            "semantic",
+            SemanticFeedback::new()
+                .avoid(Feature::Door)
+                .prefer(Feature::Path)
+                .into(),
+        ),
+    ];
+    for (name, fb) in &feedbacks {
+        group.bench_function(BenchmarkId::new("select+update", name), |b| {
+            b.iter_batched_ref(
+                || learner,
+                |l| {
+                    let table = black_box(&t);
+                    let chosen = l.select(table, ActionMask::ALL).unwrap();
+                    let round = Round::new(table, ActionMask::ALL, chosen).unwrap();
+                    l.learn(&round, black_box(fb))
+                },
+                criterion::BatchSize::SmallInput,
+            )
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench_select, bench_update, bench_round);
 criterion_main!(benches);

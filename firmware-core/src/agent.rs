@@ -4,6 +4,10 @@
 //! the last [`TICK_HISTORY`] ticks, so that feedback arriving after the next observation (a slow link, a
 //! retransmission) is still judged against the tick it refers to.
 //!
+//! [`Agent::act`] checks the observation once and evaluates the checked one; in a process where
+//! someone else evaluated the same observation already (the host's teacher),
+//! [`Agent::act_evaluated`] takes that [`Evaluation`] instead.
+//!
 //! ```
 //! use firmware_core::agent::Agent;
 //! use firmware_core::observation::Observation;
@@ -21,11 +25,11 @@ use core::fmt;
 
 use crate::action::{ActionIndex, ActionMask};
 use crate::error::LearnError;
-use crate::evaluator::Evaluator;
+use crate::evaluator::{Evaluation, Evaluator};
 use crate::feature::FeatureTable;
 use crate::feedback::{Feedback, Round};
 use crate::learner::{Learner, OnlineLearner, Outcome};
-use crate::observation::{Observation, ObservationError, PathReference};
+use crate::observation::{Observation, ObservationError, PathReference, ValidObservation};
 
 /// Number of past ticks feedback may refer to.
 pub const TICK_HISTORY: usize = 4;
@@ -125,28 +129,54 @@ impl Agent {
         self.learner = learner;
     }
 
-    /// Evaluates `obs`, chooses the action and remembers the tick. On `Err` nothing changed.
+    /// Validates `obs` (once: the evaluator takes the checked observation), evaluates it,
+    /// chooses the action and remembers the tick. On `Err` nothing changed.
     ///
     /// Acting again in a tick already remembered replaces that record.
     pub fn act(&mut self, tick: u32, obs: &Observation) -> Result<Decision, ObservationError> {
-        // Validate before touching the history, so a refused observation changes nothing.
-        obs.validate()?;
+        Ok(self.act_checked(tick, obs.check()?))
+    }
+
+    /// [`Agent::act`] on an observation already checked.
+    pub fn act_checked(&mut self, tick: u32, obs: ValidObservation<'_>) -> Decision {
         let slot = self.slot_for(tick);
+        let allowed = self
+            .evaluator
+            .evaluate(obs, &mut self.history[slot].features);
+        self.decide(tick, slot, allowed, obs.reference)
+    }
+
+    /// [`Agent::act`] on an observation someone else in the process evaluated already (the
+    /// host's teacher judges the same observation): the agent takes that evaluation instead of
+    /// making its own, bit for bit the same.
+    pub fn act_evaluated(&mut self, tick: u32, evaluation: &Evaluation) -> Decision {
+        let slot = self.slot_for(tick);
+        self.history[slot].features.clone_from(evaluation.table());
+        self.decide(tick, slot, evaluation.allowed(), evaluation.reference())
+    }
+
+    /// Chooses the action from the features in `slot` and remembers the tick there.
+    fn decide(
+        &mut self,
+        tick: u32,
+        slot: usize,
+        allowed: ActionMask,
+        reference: PathReference,
+    ) -> Decision {
         let Self {
-            evaluator,
             learner,
             history,
             next,
+            ..
         } = self;
         let record = &mut history[slot];
-        let allowed = evaluator.evaluate(obs, &mut record.features)?;
         let action = learner.select(&record.features, allowed);
         match action {
             Some(chosen) => {
                 record.tick = Some(tick);
                 record.allowed = allowed;
                 record.chosen = chosen;
-                record.reference = obs.reference;
+                record.reference = reference;
                 if slot == *next {
                     *next = (*next + 1) % TICK_HISTORY;
                 }
@@ -154,11 +184,11 @@ impl Agent {
             // Nothing to learn about a tick without an action: the slot is free again.
             None => record.tick = None,
         }
-        Ok(Decision {
+        Decision {
             tick,
             action,
             allowed,
-        })
+        }
     }
 
     /// The slot to (re)use for `tick`: its own if remembered, else the oldest.
@@ -242,6 +272,25 @@ mod tests {
         assert!(!ag.feedback(1, &stay).unwrap().stepped);
         assert!(ag.feedback(2, &stay).unwrap().stepped);
         assert!(ag.learner().weights() != &[0.0; crate::FEATURE_COUNT]);
+    }
+
+    #[test]
+    fn acting_on_an_evaluation_equals_acting_on_the_observation() {
+        let mut obs = Observation::open_space();
+        for j in 0..crate::observation::SCAN_BEAMS {
+            let (c, _) = crate::evaluator::beam_direction(j).unwrap();
+            if c > 0.2 {
+                obs.scan.ranges[j] = 1.2 / c;
+            }
+        }
+        let (mut own, mut taking) = (agent(), agent());
+        let evaluation = Evaluator::new().evaluation(obs.check().unwrap());
+        let d = own.act(1, &obs).unwrap();
+        assert_eq!(taking.act_evaluated(1, &evaluation), d);
+        assert_eq!(d.allowed, evaluation.allowed());
+        // The same record behind the tick: the same learning step.
+        assert_eq!(own.feedback(1, &fb(3)), taking.feedback(1, &fb(3)));
+        assert_eq!(own.learner(), taking.learner());
     }
 
     #[test]

@@ -1,4 +1,4 @@
-//! From one observation, the features of all 64 trajectories and the collision mask.
+//! From one observation, the collision mask and the features of the 64 trajectories.
 //!
 //! # Features (paper, section 6), and why these scales
 //!
@@ -32,26 +32,41 @@
 //! margin covers the footprint's corners near the sample (0.29 m from its centre) in part, the
 //! gaps between beams and the tracking error of the controller.
 //!
+//! A colliding trajectory is never chosen and never judged (the policy, the pseudo-losses and
+//! [`Round`](crate::Round) read the rows of allowed actions only), so its features are not
+//! computed: **its row is all zeros.** Every other row is complete.
+//!
 //! # Cost: exact, not brute force
 //!
 //! A brute-force evaluator measures every (trajectory, sample, beam): 64 × 10 × 64 = 40 960
-//! distances. This one is exact with a fraction of that:
+//! distances. This one gives the same mask and the same features (bit for bit, whatever the
+//! pruning) with a small fraction of that:
 //!
-//! 1. the 565 samples of the lattice are only 340 distinct points (trajectories share their first
-//!    segments), evaluated once each;
-//! 2. for a sample at range `ρ` and bearing `α`, a scan point on the beam at bearing `β` is at least
-//!    `ρ·sin|α − β|` away (at least `ρ` beyond 90°), so only the beams within
-//!    `asin(0.5 m / ρ)` of `α` can come within the 0.5 m clip, and for a sample nearer than the
-//!    clip, a beam more than 90° away comes no nearer than its own range, so only those shorter
-//!    than the clip (found each tick) need testing; these windows are computed at
-//!    compile time (`build.rs`) as one 64-bit beam mask per sample, 11 518 (sample, beam) pairs
-//!    in all ([`WINDOW_PAIRS`](crate::lattice::WINDOW_PAIRS)), with a 0.01 rad margin;
-//! 3. a beam whose range exceeds `ρ + 0.5 m` cannot come within the clip either: each tick
-//!    builds the mask of beams shorter than the farthest sample's `ρ` + 0.5 m, ANDs it with each
-//!    window, and checks the sample's own `ρ + 0.5 m` for the rest. In open space no beam is
-//!    near and the obstacle pass costs nothing.
+//! 1. the 565 samples of the lattice are only 351 distinct points (trajectories share their
+//!    starts), measured once each, and sums along trajectories share their common heads;
+//! 2. `build.rs` groups nearby samples into clusters (every member within 0.1 m of the
+//!    cluster's centre; the samples at the same arc length of trajectories that start
+//!    together lie on a short arc). For a centre at range `ρ` and bearing `α`, a scan point on the
+//!    beam at bearing `β` is at least `ρ·sin|α − β|` away (at least `ρ` beyond 90°), and at least
+//!    `|r − ρ|` for a range `r`: at compile time each cluster gets the window of beams within
+//!    `asin(d/ρ)` of `α` (with a 0.01 rad margin) and the band of range bins within `d` of `ρ`,
+//!    for `d` = the 0.5 m clip + the spread. Each tick sorts the beams into range bins once (a
+//!    beam beyond every band is never looked at again), and a cluster's candidates are its window
+//!    ANDed with its band: two 32-bit masks. In open space no beam is in any band and the
+//!    obstacle pass ends there;
+//! 3. from the cluster's centre, with `m` the distance to its nearest candidate and `s` the
+//!    spread, every member is within `m + s` of that point, so a point farther than `m + 2s`
+//!    from the centre is nobody's nearest: the members measure only the candidates within
+//!    `m + 2s` (the near set), usually one to three;
+//! 4. clusters are visited farthest first: a sample's nearest distance decides its collision,
+//!    and the samples whose trajectories all collide already are skipped; then the semantic
+//!    features and the sums run over the samples of the trajectories that do not collide only.
+//!    Semantic objects are pruned per cluster the same way (reach, and an object that is farther
+//!    than another for every member), and where the centre's distance settles the tests for
+//!    every member at once, a loop without them runs.
 //!
-//! Every skipped beam is provably farther than the clip, so pruning changes no result.
+//! Every skipped beam, object or test is provably irrelevant (each decision keeps a 1 mm margin,
+//! far above the rounding of these distances), so pruning changes no result.
 //!
 //! Square roots use [`sqrt`], a seed and two Newton steps with relative error at most
 //! [`SQRT_RELATIVE_ERROR`] (a Cortex-M4 spends about 70 instructions on `libm`'s correctly
@@ -76,24 +91,29 @@
 //!
 //! let mut evaluator = Evaluator::new();
 //! let mut table = FeatureTable::ZERO;
-//! let allowed = evaluator.evaluate(&Observation::open_space(), &mut table).unwrap();
+//! let obs = Observation::open_space();
+//! let allowed = evaluator.evaluate(obs.check().unwrap(), &mut table);
 //! assert_eq!(allowed, ActionMask::ALL); // nothing to hit
 //! ```
 
-use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
-use crate::feature::{Feature, FeatureTable, Features};
+use nalgebra::{Isometry2, Translation2, UnitComplex};
+
+use crate::action::{ActionMask, MAX_ACTIONS};
+use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
 use crate::lattice::{
-    BEAM_COS, BEAM_SIN, MAX_SAMPLE_RHO, OBSTACLE_CLIP, SAMPLE_COUNT, SAMPLE_OF, SAMPLE_POINTS,
-    SAMPLE_RHO, SAMPLE_WINDOW, SAMPLES, SAMPLES_BY_RHO, SCAN_BEAMS, TRAJECTORIES, UNIQUE_SAMPLES,
+    BEAM_COS, BEAM_SIN, CLUSTERS, Cluster, HEAD_COUNT, HEAD_OF, HEADS, MAX_CLUSTER_SPREAD,
+    MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE, RANGE_BIN_WIDTH, RANGE_BINS, REACH_MARGIN,
+    ROW_SCALE, Reach, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS, TAIL_OF,
+    TRAJECTORIES, UNIQUE_SAMPLES,
 };
-use crate::observation::{Observation, ObservationError, PathReference, SemanticClass};
+use crate::observation::{
+    MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
+};
+
+pub use crate::lattice::COLLISION_RADIUS;
 
 /// Clearances to semantic objects are clipped at this distance (m).
 pub const SEMANTIC_CLIP: f32 = 2.0;
-
-/// A sample closer than this to a scan point collides (m): the car's half-width 0.15 m plus a
-/// 0.10 m margin.
-pub const COLLISION_RADIUS: f32 = 0.25;
 
 /// Largest difference between a feature of this evaluator and the same feature computed with
 /// exact square roots (see the module documentation for the derivation; tested).
@@ -111,46 +131,61 @@ const _: () = assert!(
 );
 const _: () = assert!(UNIQUE_SAMPLES <= u16::MAX as usize);
 const _: () = assert!(crate::observation::SCAN_BEAMS == SCAN_BEAMS);
+const _: () = assert!(SCAN_BEAMS == 64, "beam masks are two u32 words");
+const _: () = assert!(
+    PAD_SAMPLE == SCRATCH - 1 && UNIQUE_SAMPLES.next_multiple_of(4) <= PAD_SAMPLE,
+    "the last slot pads heads and tails, and no fill reaches it"
+);
+const _: () = assert!(HEAD_COUNT.is_power_of_two());
 
-const COLLIDE_WORDS: usize = SCRATCH / 32;
-
-/// Length of the per-sample scratch arrays: the next power of two above the distinct samples.
+/// Length of the per-sample clearance array: the next power of two above the distinct samples, so
+/// that indexing with a mask needs no bounds check.
 const SCRATCH: usize = UNIQUE_SAMPLES.next_power_of_two();
 
-/// Slack added to "range beyond ρ + clip" before a beam is skipped: 1 mm, far above f32
-/// rounding at these magnitudes, so a skipped beam is provably beyond the clip.
-const REACH_MARGIN: f32 = 1.0e-3;
+/// A set of beams, one bit each: beams 0–31, then 32–63.
+type Beams = [u32; 2];
 
-/// Width of the range bins of the obstacle pass (m).
-const BIN_WIDTH: f32 = 0.05;
+/// One observation evaluated: the features of every action (all zeros for those that collide)
+/// and the actions that do not collide. Made only by [`Evaluator::evaluation`], so an agent can
+/// act on it as on its own evaluation.
+#[derive(Clone, PartialEq, Debug)]
+pub struct Evaluation {
+    table: FeatureTable,
+    allowed: ActionMask,
+    reference: PathReference,
+}
 
-/// Number of range bins: enough to cover the farthest sample's ρ + clip.
-const RANGE_BINS: usize =
-    ((MAX_SAMPLE_RHO + OBSTACLE_CLIP + REACH_MARGIN) / BIN_WIDTH) as usize + 1;
-
-/// `BIN_EDGES[b] = b · BIN_WIDTH`, the lower edge of bin `b` (and the upper edge of bin `b − 1`).
-const BIN_EDGES: [f32; RANGE_BINS + 1] = {
-    let mut e = [0.0f32; RANGE_BINS + 1];
-    let mut b = 0;
-    while b <= RANGE_BINS {
-        e[b] = b as f32 * BIN_WIDTH;
-        b += 1;
+impl Evaluation {
+    /// The features of every action.
+    pub fn table(&self) -> &FeatureTable {
+        &self.table
     }
-    e
-};
 
-/// The evaluator and its scratch memory (about 2.6 KiB), reused from tick to tick.
+    /// The actions that do not collide.
+    pub fn allowed(&self) -> ActionMask {
+        self.allowed
+    }
+
+    /// The observation's path reference (what a statement about the path is judged against).
+    pub fn reference(&self) -> PathReference {
+        self.reference
+    }
+}
+
+/// The evaluator and its scratch memory (3 328 bytes), reused from tick to tick.
 ///
 /// Keep one per agent, in a `static` on the car, so the linker accounts for it.
 #[derive(Clone, Debug)]
 pub struct Evaluator {
     /// Scan points in the car frame.
     points: [[f32; 2]; SCAN_BEAMS],
-    /// Per distinct sample: clipped clearance (obstacles, then one class at a time). A power of
-    /// two long, so that indexing with a mask needs no bounds check.
+    /// `shorter[b]`: the beams whose range bin is below `b`, i.e. (up to rounding, which the
+    /// margins absorb) whose range is below `b · RANGE_BIN_WIDTH`.
+    shorter: [Beams; SHORTER],
+    /// Squared distances from a cluster's centre to its candidate beams' points.
+    centre_d2: [f32; SCAN_BEAMS],
+    /// Per distinct sample: clipped clearance (obstacles, then one class at a time).
     clearance: [f32; SCRATCH],
-    /// Per distinct sample: whether it collides.
-    collides: [u32; COLLIDE_WORDS],
 }
 
 impl Default for Evaluator {
@@ -181,207 +216,562 @@ pub fn sqrt(x: f32) -> f32 {
     libm::sqrtf(x)
 }
 
+/// `x` if it is below `clip`, else `clip` (`f32::min` without the NaN handling, which is a call
+/// to `fminf` on a Cortex-M4; the evaluator's values are never NaN).
+#[inline]
+fn clipped(x: f32, clip: f32) -> f32 {
+    if x < clip { x } else { clip }
+}
+
 impl Evaluator {
     /// A fresh evaluator.
     pub const fn new() -> Self {
         Self {
             points: [[0.0; 2]; SCAN_BEAMS],
+            shorter: [[0; 2]; SHORTER],
+            centre_d2: [0.0; SCAN_BEAMS],
             clearance: [0.0; SCRATCH],
-            collides: [0; COLLIDE_WORDS],
         }
     }
 
-    /// Validates `obs`, writes the features of every trajectory into `out`, and returns the
-    /// trajectories that do not collide. On `Err`, `out` is untouched.
-    pub fn evaluate(
-        &mut self,
-        obs: &Observation,
-        out: &mut FeatureTable,
-    ) -> Result<ActionMask, ObservationError> {
-        obs.validate()?;
-        self.obstacles(obs);
-        let mut allowed = ActionMask::NONE;
+    /// Writes the features of every trajectory that does not collide into `out` (the rows of
+    /// the colliding ones are zero), and returns the trajectories that do not collide.
+    ///
+    /// The observation was validated once, by [`Observation::check`].
+    pub fn evaluate(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> ActionMask {
+        let obstacles = self.obstacles(&obs.scan.ranges);
         let rows = out.rows_mut();
-        for (a, row) in rows.iter_mut().enumerate() {
-            let (samples, scale) = samples_of(a);
-            let mut sum = 0.0f32;
-            let mut hit = false;
-            for &u in samples {
-                let u = u as usize & (SCRATCH - 1);
-                sum += self.clearance[u];
-                hit |= self.collides[u >> 5] >> (u & 31) & 1 == 1;
+        let allowed = match obstacles {
+            Obstacles::Clear => {
+                // Every clearance is the clip: every sum is ten clips.
+                let f = Feature::Obstacles.index();
+                for row in rows.iter_mut() {
+                    row[f] = SAMPLES as f32;
+                }
+                u64::MAX
             }
-            row[Feature::Obstacles.index()] = sum * scale / OBSTACLE_CLIP;
-            if !hit && let Some(action) = ActionIndex::new(a) {
-                allowed.insert(action);
+            Obstacles::Measured(allowed) => {
+                for_each_action(!allowed, |a| rows[a] = [0.0; FEATURE_COUNT]);
+                let f = Feature::Obstacles.index();
+                self.sum_rows(allowed, f, OBSTACLE_CLIP, rows);
+                allowed
             }
+        };
+        if allowed != 0 {
+            for class in SemanticClass::ALL {
+                self.semantic(&obs, class, allowed, rows);
+            }
+            path_and_side(&obs, allowed, rows);
         }
-        for class in SemanticClass::ALL {
-            self.semantic(obs, class, rows);
-        }
-        path_and_side(obs, rows);
-        Ok(allowed)
+        ActionMask::from_bits(allowed)
     }
 
-    /// Clipped obstacle clearance and collision of every distinct sample.
-    fn obstacles(&mut self, obs: &Observation) {
-        let ranges = &obs.scan.ranges;
-        for j in 0..SCAN_BEAMS {
-            self.points[j] = [ranges[j] * BEAM_COS[j], ranges[j] * BEAM_SIN[j]];
+    /// [`Evaluator::evaluate`] into an [`Evaluation`] of its own, which an
+    /// [`Agent`](crate::agent::Agent) can act on without evaluating again
+    /// ([`Agent::act_evaluated`](crate::agent::Agent::act_evaluated)).
+    pub fn evaluation(&mut self, obs: ValidObservation<'_>) -> Evaluation {
+        let mut table = FeatureTable::ZERO;
+        let allowed = self.evaluate(obs, &mut table);
+        Evaluation {
+            table,
+            allowed,
+            reference: obs.reference,
         }
-        self.collides = [0; COLLIDE_WORDS];
-        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
-        let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
-        // Beams binned by range: bin b holds the beams with range in [b·w, (b+1)·w), w = BIN_WIDTH.
-        // Only ranges below the farthest sample's ρ + clip can matter; longer beams are left out.
+    }
+
+    /// Decides which trajectories collide, then measures the clipped obstacle clearance of every
+    /// sample of the others (into `clearance`). Returns the trajectories that do not collide, one
+    /// bit per action.
+    fn obstacles(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
+        // Beams binned by range, bin b holding [b·w, (b+1)·w), then accumulated: `shorter[b]`
+        // holds the bins below b. Longer beams are out of every cluster's reach and left out.
         let mut bins = [[0u32; 2]; RANGE_BINS];
-        // Beams shorter than the clip: candidates for every sample, whatever their bearing (the
-        // compile-time windows cover only bearings within 90° of a sample's).
-        let (mut close_lo, mut close_hi) = (0u32, 0u32);
+        let mut binned = [0u32; 2];
         for (j, &r) in ranges.iter().enumerate() {
-            let b = (r * (1.0 / BIN_WIDTH)) as usize;
+            let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
             if b < RANGE_BINS {
                 bins[b][j >> 5] |= 1 << (j & 31);
-            }
-            if r < OBSTACLE_CLIP + REACH_MARGIN {
-                if j < 32 {
-                    close_lo |= 1 << j;
-                } else {
-                    close_hi |= 1 << (j & 31);
-                }
+                binned[j >> 5] |= 1 << (j & 31);
             }
         }
-        if bins.iter().all(|b| b[0] | b[1] == 0) {
-            // No beam within reach of any sample: every clearance is the clip.
-            self.clearance = [OBSTACLE_CLIP; SCRATCH];
-            return;
+        if binned == [0, 0] {
+            // No beam within reach of any sample: nothing collides, every clearance is the clip.
+            return Obstacles::Clear;
         }
-        // Samples by increasing ρ: `upper` holds the bins that may hold a beam shorter than
-        // ρ + clip, `lower` the bins whose beams are all at most ρ − clip; both only grow. A bin
-        // joins `upper` as soon as its lower edge is below ρ + clip and `lower` only once its upper
-        // edge is at most ρ − clip, so the candidates are a superset of the beams that can matter:
-        // the binning costs some extra distance tests, never a wrong result.
-        let (mut upper_lo, mut upper_hi, mut lower_lo, mut lower_hi) = (0u32, 0u32, 0u32, 0u32);
-        let (mut hi, mut lo) = (0usize, 0usize);
-        for &u in &SAMPLES_BY_RHO {
-            let u = u as usize;
-            let rho = SAMPLE_RHO[u];
-            let far = rho + OBSTACLE_CLIP + REACH_MARGIN;
-            while hi < RANGE_BINS && BIN_EDGES[hi] < far {
-                upper_lo |= bins[hi][0];
-                upper_hi |= bins[hi][1];
-                hi += 1;
+        // The scan points of the binned beams: no other is ever a candidate.
+        for (word, base) in [(binned[0], 0), (binned[1], 32)] {
+            let mut bits = word;
+            while bits != 0 {
+                let j = (bits.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
+                bits &= bits - 1;
+                self.points[j] = [ranges[j] * BEAM_COS[j], ranges[j] * BEAM_SIN[j]];
             }
-            let near = rho - OBSTACLE_CLIP - REACH_MARGIN;
-            while lo < RANGE_BINS && BIN_EDGES[lo + 1] <= near {
-                lower_lo |= bins[lo][0];
-                lower_hi |= bins[lo][1];
-                lo += 1;
-            }
-            let window = SAMPLE_WINDOW[u];
-            let cand_lo = (window as u32 | close_lo) & upper_lo & !lower_lo;
-            let cand_hi = ((window >> 32) as u32 | close_hi) & upper_hi & !lower_hi;
-            if cand_lo | cand_hi == 0 {
-                self.clearance[u & (SCRATCH - 1)] = OBSTACLE_CLIP;
+        }
+        let mut acc = [0u32; 2];
+        self.shorter[0] = acc;
+        for (b, bin) in bins.iter().enumerate() {
+            acc = [acc[0] | bin[0], acc[1] | bin[1]];
+            self.shorter[b + 1] = acc;
+        }
+        // Beams shorter than the clip plus the largest spread, and some more (whole bins):
+        // candidates for every cluster whatever their bearing (the windows cover only bearings
+        // within 90° of a cluster's centre).
+        let close = self.shorter[CLOSE_BINS];
+
+        // Farthest clusters first (their samples collide most often): a sample whose trajectories
+        // all collide already is skipped. The nearest scan point of a sample within the clip is
+        // in its cluster's near set, so its distance decides both the clearance and the collision.
+        let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
+        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
+        let mut collided = 0u64;
+        self.fill(OBSTACLE_CLIP);
+        for cluster in CLUSTERS.iter().rev() {
+            if cluster.trajectories & !collided == 0 {
                 continue;
             }
-            let [sx, sy] = SAMPLE_POINTS[u];
-            let mut best = clip2;
-            // The two halves of the candidate mask, written out: a loop over a two-element array
-            // of (mask, base) pairs costs stack traffic per sample on a Cortex-M4.
-            let points = &self.points;
-            let mut nearest = |mut beams: u32, base: usize| {
-                while beams != 0 {
-                    let j = (beams.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
-                    beams &= beams - 1;
-                    let dx = points[j][0] - sx;
-                    let dy = points[j][1] - sy;
-                    let d2 = dx * dx + dy * dy;
-                    if d2 < best {
-                        best = d2;
-                    }
+            let beams = match self.near_set(cluster, close) {
+                Near::None => continue,
+                Near::Collides => {
+                    collided |= cluster.trajectories;
+                    continue;
                 }
+                Near::Beams(beams) => beams,
             };
-            nearest(cand_lo, 0);
-            nearest(cand_hi, 32);
-            self.clearance[u & (SCRATCH - 1)] = if best < clip2 {
-                sqrt(best).min(OBSTACLE_CLIP)
-            } else {
-                OBSTACLE_CLIP
-            };
-            if best < collide2 {
-                self.collides[(u >> 5) & (COLLIDE_WORDS - 1)] |= 1 << (u & 31);
+            for u in members(cluster) {
+                let trajectories = SAMPLE_TRAJECTORIES[u];
+                if trajectories & !collided == 0 {
+                    continue;
+                }
+                let best = self.nearest(u, beams, clip2);
+                if best < collide2 {
+                    // Its trajectories collide: its clearance is never read.
+                    collided |= trajectories;
+                } else if best < clip2 {
+                    self.clearance[u] = clipped(sqrt(best), OBSTACLE_CLIP);
+                }
             }
+        }
+        Obstacles::Measured(!collided)
+    }
+
+    /// The beams that can be the nearest scan point within the clip of some member of `cluster`.
+    ///
+    /// With `m` the distance from the centre to its nearest candidate and `s` the spread, every
+    /// member is within `m + s` of that point, and a point farther than `m + 2s` from the centre
+    /// is farther than `m + s` from every member: only the points within `m + 2s` of the centre
+    /// (and within the clip + `s`) can be a member's nearest within the clip.
+    fn near_set(&mut self, cluster: &Cluster, close: Beams) -> Near {
+        let beams = self.candidates(&cluster.clip, close);
+        if beams[0] | beams[1] == 0 {
+            return Near::None;
+        }
+        let [cx, cy] = cluster.centre;
+        let mut m2 = f32::MAX;
+        for (word, base) in [(beams[0], 0), (beams[1], 32)] {
+            let mut bits = word;
+            while bits != 0 {
+                let j = (bits.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
+                bits &= bits - 1;
+                let dx = self.points[j][0] - cx;
+                let dy = self.points[j][1] - cy;
+                let d2 = dx * dx + dy * dy;
+                self.centre_d2[j] = d2;
+                if d2 < m2 {
+                    m2 = d2;
+                }
+            }
+        }
+        let spread = cluster.spread;
+        let reach = OBSTACLE_CLIP + spread + REACH_MARGIN;
+        if m2 >= reach * reach {
+            // Every candidate is beyond the clip of every member.
+            return Near::None;
+        }
+        let m = sqrt(m2);
+        if (m + spread) * (1.0 + 1.0e-5) + REACH_MARGIN < COLLISION_RADIUS {
+            // Every member is within the collision radius of the centre's nearest point.
+            return Near::Collides;
+        }
+        // Generous against rounding: a relative 1e-5 and the 1 mm margin.
+        let near = (m + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN;
+        let limit = clipped(near, reach);
+        let limit2 = limit * limit;
+        let mut out = [0u32; 2];
+        for (w, (word, base)) in [(beams[0], 0), (beams[1], 32)].into_iter().enumerate() {
+            let mut bits = word;
+            while bits != 0 {
+                let k = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if self.centre_d2[(k + base) & (SCAN_BEAMS - 1)] < limit2 {
+                    out[w] |= 1 << k;
+                }
+            }
+        }
+        Near::Beams(out)
+    }
+
+    /// The beams that may come within `reach`'s distance of a cluster's samples: its window (or
+    /// the beams shorter than the distance, whatever their bearing) within its band of range bins.
+    #[inline]
+    fn candidates(&self, reach: &Reach, close: Beams) -> Beams {
+        let lo = self.shorter[usize::from(reach.bins[0]) & (SHORTER - 1)];
+        let hi = self.shorter[usize::from(reach.bins[1]) & (SHORTER - 1)];
+        [
+            (reach.window[0] | close[0]) & hi[0] & !lo[0],
+            (reach.window[1] | close[1]) & hi[1] & !lo[1],
+        ]
+    }
+
+    /// The smallest squared distance from sample `u` to one of `beams`, or `limit2` if none is
+    /// closer.
+    #[inline]
+    fn nearest(&self, u: usize, beams: Beams, limit2: f32) -> f32 {
+        let [sx, sy] = SAMPLE_POINTS[u & (SCRATCH - 1)];
+        let mut best = limit2;
+        let points = &self.points;
+        // The two halves written out: a loop over a two-element array of (mask, base) pairs costs
+        // stack traffic per sample on a Cortex-M4.
+        let mut scan = |mut bits: u32, base: usize| {
+            while bits != 0 {
+                let j = (bits.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
+                bits &= bits - 1;
+                let dx = points[j][0] - sx;
+                let dy = points[j][1] - sy;
+                let d2 = dx * dx + dy * dy;
+                if d2 < best {
+                    best = d2;
+                }
+            }
+        };
+        scan(beams[0], 0);
+        scan(beams[1], 32);
+        best
+    }
+
+    /// Sets the clearance of every sample to `value` (the unused slots above stay 0).
+    #[inline]
+    fn fill(&mut self, value: f32) {
+        // Four at a time, written out: a store-and-count loop spends three instructions per slot.
+        for c in self.clearance[..UNIQUE_SAMPLES.next_multiple_of(4)].chunks_exact_mut(4) {
+            c[0] = value;
+            c[1] = value;
+            c[2] = value;
+            c[3] = value;
         }
     }
 
-    /// The clearance feature of one semantic class.
+    /// Sums the per-sample clearance (`self.clearance`) along every allowed trajectory, scaled
+    /// to ten samples and divided by `clip`, into feature `f`: the shared heads once, then each
+    /// trajectory's tail, in order along it (the same sum, bit for bit, as one pass: padding
+    /// adds the clearance of the unused slot `PAD_SAMPLE`, which stays 0).
+    fn sum_rows(&self, allowed: u64, f: usize, clip: f32, rows: &mut [Features; MAX_ACTIONS]) {
+        let c = &self.clearance;
+        let at = |u: u16| c[usize::from(u) & (SCRATCH - 1)];
+        let mut heads = [0.0f32; HEAD_COUNT];
+        for (sum, head) in heads.iter_mut().zip(HEADS.iter()) {
+            for &u in head {
+                *sum += at(u);
+            }
+        }
+        for_each_action(allowed, |a| {
+            // Written out: a loop of six costs a counter and a branch per sample on a Cortex-M4.
+            let [t0, t1, t2, t3, t4, t5] = TAIL_OF[a];
+            let mut sum = heads[usize::from(HEAD_OF[a]) & (HEAD_COUNT - 1)];
+            sum += at(t0);
+            sum += at(t1);
+            sum += at(t2);
+            sum += at(t3);
+            sum += at(t4);
+            sum += at(t5);
+            rows[a][f] = sum * ROW_SCALE[a] / clip;
+        });
+    }
+
+    /// The clearance feature of one semantic class, for every allowed trajectory.
     fn semantic(
         &mut self,
         obs: &Observation,
         class: SemanticClass,
+        allowed: u64,
         rows: &mut [Features; MAX_ACTIONS],
     ) {
         let f = class.feature().index();
-        if !obs.objects.iter().any(|o| o.class == class) {
-            for row in rows.iter_mut() {
-                row[f] = SAMPLES as f32;
-            }
-            return;
-        }
-        self.clearance = [SEMANTIC_CLIP; SCRATCH];
+        // The objects of the class. A sample farther than clip + r from the centre reads the clip
+        // for that object (tested on squares, so the root is taken only where it matters).
+        let mut objects = [Disc::FAR; MAX_OBJECTS];
+        let mut n = 0;
+        let mut present = false;
         for o in obs.objects.iter().filter(|o| o.class == class) {
-            // A sample farther than clip + r from the centre reads the clip for this object:
-            // tested on squares, so the root is taken only where it matters. An object whose
-            // disc is farther than that from every sample is skipped whole.
+            present = true;
             let reach = SEMANTIC_CLIP + o.radius + REACH_MARGIN;
-            let reach2 = reach * reach;
+            // An object whose reach misses every sample is left out.
             let whole = MAX_SAMPLE_RHO + reach;
             if o.x * o.x + o.y * o.y >= whole * whole {
                 continue;
             }
-            for (c, &[sx, sy]) in self.clearance.iter_mut().zip(SAMPLE_POINTS.iter()) {
-                let (dx, dy) = (sx - o.x, sy - o.y);
-                let d2 = dx * dx + dy * dy;
-                if d2 < reach2 {
-                    let d = sqrt(d2) - o.radius;
-                    let d = if d > 0.0 { d } else { 0.0 };
-                    if d < *c {
-                        *c = d;
-                    }
+            if let Some(slot) = objects.get_mut(n) {
+                *slot = Disc {
+                    x: o.x,
+                    y: o.y,
+                    radius: o.radius,
+                    reach,
+                    reach2: reach * reach,
+                };
+                n += 1;
+            }
+        }
+        if !present {
+            for_each_action(allowed, |a| rows[a][f] = SAMPLES as f32);
+            return;
+        }
+        let objects = &objects[..n];
+        self.fill(SEMANTIC_CLIP);
+        for cluster in &CLUSTERS {
+            let needed = Needed::of(cluster, allowed);
+            if needed == Needed::None {
+                continue;
+            }
+            // The objects within reach of some member of the cluster.
+            let [cx, cy] = cluster.centre;
+            let mut near = 0u32;
+            for (k, o) in objects.iter().enumerate() {
+                let (dx, dy) = (cx - o.x, cy - o.y);
+                let limit = o.reach + cluster.spread;
+                if dx * dx + dy * dy < limit * limit {
+                    near |= 1 << k;
                 }
             }
-        }
-        for (a, row) in rows.iter_mut().enumerate() {
-            let (samples, scale) = samples_of(a);
-            let mut sum = 0.0f32;
-            for &u in samples {
-                sum += self.clearance[u as usize & (SCRATCH - 1)];
+            if near == 0 {
+                continue;
             }
-            row[f] = sum * scale / SEMANTIC_CLIP;
+            let centre;
+            (near, centre) = if near & (near - 1) == 0 {
+                let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                let (dx, dy) = (cx - o.x, cy - o.y);
+                (near, sqrt(dx * dx + dy * dy))
+            } else {
+                dominant(objects, near, cluster)
+            };
+            if near & (near - 1) == 0 {
+                let k = near.trailing_zeros() as usize & (MAX_OBJECTS - 1);
+                self.one_object(cluster, needed, allowed, &objects[k], centre);
+                continue;
+            }
+            for u in members(cluster) {
+                if needed == Needed::Some && SAMPLE_TRAJECTORIES[u] & allowed == 0 {
+                    continue;
+                }
+                let [sx, sy] = SAMPLE_POINTS[u];
+                let mut c = SEMANTIC_CLIP;
+                let mut bits = near;
+                while bits != 0 {
+                    let o = &objects[bits.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                    bits &= bits - 1;
+                    let (dx, dy) = (sx - o.x, sy - o.y);
+                    let d2 = dx * dx + dy * dy;
+                    if d2 < o.reach2 {
+                        let d = sqrt(d2) - o.radius;
+                        let d = if d > 0.0 { d } else { 0.0 };
+                        if d < c {
+                            c = d;
+                        }
+                    }
+                }
+                self.clearance[u] = c;
+            }
+        }
+        self.sum_rows(allowed, f, SEMANTIC_CLIP, rows);
+    }
+
+    /// The semantic clearance of the members of `cluster` when one object `o` alone can be the
+    /// nearest of its class to them. The same values, bit for bit, as the general loop: when the
+    /// centre's distance and the spread decide its tests for every member at once (each with a
+    /// 1 mm margin, far above the rounding of these distances), a loop without them runs.
+    /// `centre` is the distance from the cluster's centre to the object's.
+    fn one_object(
+        &mut self,
+        cluster: &Cluster,
+        needed: Needed,
+        allowed: u64,
+        o: &Disc,
+        centre: f32,
+    ) {
+        let spread = cluster.spread + REACH_MARGIN;
+        // Every member within reach (no test of d² against it), outside the disc (d > 0), and
+        // nearer than the clip beyond the disc (d < clip).
+        let settled = centre + spread < o.reach
+            && centre - spread > o.radius
+            && centre + spread < SEMANTIC_CLIP + o.radius;
+        let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
+        let start = usize::from(cluster.samples[0]);
+        let end = usize::from(cluster.samples[1]).min(UNIQUE_SAMPLES);
+        let (Some(points), Some(clearance)) = (
+            SAMPLE_POINTS.get(start..end),
+            self.clearance.get_mut(start..end),
+        ) else {
+            return;
+        };
+        if settled && needed == Needed::All {
+            for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
+                let (dx, dy) = (sx - ox, sy - oy);
+                *c = sqrt(dx * dx + dy * dy) - radius;
+            }
+            return;
+        }
+        for (u, (c, &[sx, sy])) in (start..).zip(clearance.iter_mut().zip(points)) {
+            if SAMPLE_TRAJECTORIES[u & (SCRATCH - 1)] & allowed == 0 {
+                continue;
+            }
+            let (dx, dy) = (sx - ox, sy - oy);
+            let d2 = dx * dx + dy * dy;
+            *c = if d2 < reach2 {
+                let d = sqrt(d2) - radius;
+                clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP)
+            } else {
+                SEMANTIC_CLIP
+            };
         }
     }
 }
 
-/// The distinct-sample indices of trajectory `a`, and the factor that scales their sum to ten
-/// samples (1 for cruise, 2 for creep: exact in floating point). From a table of the counts, not
-/// from the trajectory itself: no division and no large-struct indexing, 64 times per feature.
-#[inline]
-fn samples_of(a: usize) -> (&'static [u16], f32) {
-    let n = (SAMPLE_COUNT[a] as usize).clamp(1, SAMPLES);
-    (&SAMPLE_OF[a][..n], SAMPLE_SCALE[n])
+/// A semantic object for the evaluator: its disc, its reach (the semantic clip beyond its
+/// radius, and the margin) and the reach squared.
+#[derive(Clone, Copy)]
+struct Disc {
+    x: f32,
+    y: f32,
+    radius: f32,
+    reach: f32,
+    reach2: f32,
 }
 
-/// `SAMPLE_SCALE[n] = SAMPLES / n` for the counts a trajectory can have (index 0 unused).
-const SAMPLE_SCALE: [f32; SAMPLES + 1] = {
-    let mut t = [0.0f32; SAMPLES + 1];
-    let mut n = 1;
-    while n <= SAMPLES {
-        t[n] = (SAMPLES / n) as f32;
-        n += 1;
+impl Disc {
+    /// A placeholder, out of every sample's reach.
+    const FAR: Self = Self {
+        x: 1.0e6,
+        y: 1.0e6,
+        radius: 0.0,
+        reach: 0.0,
+        reach2: 0.0,
+    };
+}
+
+/// Of the objects `near` (bits into `objects`), those whose clearance may be the least of the
+/// class for some member of `cluster`, and the distance from the centre to the last of them: an
+/// object whose clearance exceeds, for every member, another's largest possible one is left out
+/// (with a 1 mm margin, far above the rounding of these distances).
+fn dominant(objects: &[Disc], near: u32, cluster: &Cluster) -> (u32, f32) {
+    let spread = cluster.spread + REACH_MARGIN;
+    let [cx, cy] = cluster.centre;
+    let mut distance = [0.0f32; MAX_OBJECTS];
+    let mut least_highest = f32::MAX;
+    let mut bits = near;
+    while bits != 0 {
+        let k = bits.trailing_zeros() as usize & (MAX_OBJECTS - 1);
+        bits &= bits - 1;
+        if let Some(o) = objects.get(k) {
+            let (dx, dy) = (cx - o.x, cy - o.y);
+            distance[k] = sqrt(dx * dx + dy * dy);
+            let highest = distance[k] - o.radius + spread;
+            if highest < least_highest {
+                least_highest = highest;
+            }
+        }
     }
-    t
-};
+    let (mut kept, mut last) = (0, 0.0);
+    let mut bits = near;
+    while bits != 0 {
+        let k = bits.trailing_zeros() as usize & (MAX_OBJECTS - 1);
+        bits &= bits - 1;
+        if let Some(o) = objects.get(k)
+            && distance[k] - o.radius - spread <= least_highest
+        {
+            kept |= 1 << k;
+            last = distance[k];
+        }
+    }
+    (kept, last)
+}
+
+/// Calls `f` with every action whose bit is set in `mask`, lowest first (on two 32-bit halves:
+/// a 64-bit shift or count is several instructions on a Cortex-M4).
+#[inline]
+fn for_each_action(mask: u64, mut f: impl FnMut(usize)) {
+    for (half, base) in [(mask as u32, 0), ((mask >> 32) as u32, 32)] {
+        let mut bits = half;
+        while bits != 0 {
+            f((bits.trailing_zeros() as usize + base) & (MAX_ACTIONS - 1));
+            bits &= bits - 1;
+        }
+    }
+}
+
+/// The scan points that matter to the members of a cluster.
+#[derive(Clone, Copy)]
+enum Near {
+    /// None within the clip of any member.
+    None,
+    /// Every member collides: one point is within the collision radius of all of them.
+    Collides,
+    /// The points that can be a member's nearest within the clip.
+    Beams(Beams),
+}
+
+/// What the obstacle pass found.
+#[derive(Clone, Copy)]
+enum Obstacles {
+    /// No scan point within reach of any sample: nothing collides, every clearance is the clip.
+    Clear,
+    /// The trajectories that do not collide (one bit per action); the clearances of their
+    /// samples are in `Evaluator::clearance`.
+    Measured(u64),
+}
+
+/// Which members of a cluster the trajectories that do not collide use.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Needed {
+    /// None: skip the cluster.
+    None,
+    /// Some: test each member.
+    Some,
+    /// All of them.
+    All,
+}
+
+impl Needed {
+    #[inline]
+    fn of(cluster: &Cluster, allowed: u64) -> Self {
+        if cluster.trajectories & allowed == 0 {
+            Needed::None
+        } else if cluster.trajectories & !allowed == 0 {
+            Needed::All
+        } else {
+            Needed::Some
+        }
+    }
+}
+
+/// The sample indices of a cluster's members, masked into the scratch arrays' range.
+#[inline]
+fn members(cluster: &Cluster) -> impl Iterator<Item = usize> {
+    (usize::from(cluster.samples[0])..usize::from(cluster.samples[1])).map(|u| u & (SCRATCH - 1))
+}
+
+/// Range bins below the first that holds only beams at least the clip plus the largest spread
+/// (and the margin) long: `shorter[CLOSE_BINS]` holds every beam shorter.
+const CLOSE_BINS: usize = bins_below(OBSTACLE_CLIP + MAX_CLUSTER_SPREAD + REACH_MARGIN);
+
+/// The number of whole bins that cover `[0, d)`.
+const fn bins_below(d: f32) -> usize {
+    let n = (d / RANGE_BIN_WIDTH) as usize + 1;
+    assert!(n <= RANGE_BINS);
+    n
+}
+
+/// Entries of `Evaluator::shorter`: `RANGE_BINS + 1` rounded up to a power of two, so that
+/// indexing it with a mask needs no bounds check (the entries above `RANGE_BINS` stay empty and
+/// are never read: the bands end at `RANGE_BINS`).
+const SHORTER: usize = (RANGE_BINS + 1).next_power_of_two();
 
 /// The cross-track error `|cross|` (m) of every trajectory's end against the path reference: the
 /// distance from the end to the line through the reference point along the path's heading.
@@ -410,7 +800,8 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     let mut out = [0.0f32; MAX_ACTIONS];
     for (d, t) in out.iter_mut().zip(TRAJECTORIES.iter()) {
         let e = t.end();
-        // The same operations as the cross-track part of `path_and_side`.
+        // The cross-track part of the end in the reference's frame (as `path_and_side`'s
+        // `local.y`), written out with `sincosf`.
         let dx = e.x - p.x;
         let dy = e.y - p.y;
         let cross = dy * c - dx * s;
@@ -419,20 +810,22 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     out
 }
 
-/// Path error and lateral offset of every trajectory's end.
-fn path_and_side(obs: &Observation, rows: &mut [Features; MAX_ACTIONS]) {
+/// Path error and lateral offset of every allowed trajectory's end: the end in the frame of the
+/// path reference (`along`, `cross`), and the end's `y`.
+fn path_and_side(obs: &Observation, allowed: u64, rows: &mut [Features; MAX_ACTIONS]) {
     let p = &obs.reference;
-    let (s, c) = (libm::sinf(p.heading), libm::cosf(p.heading));
-    for (row, t) in rows.iter_mut().zip(TRAJECTORIES.iter()) {
-        let e = t.end();
-        let dx = e.x - p.x;
-        let dy = e.y - p.y;
-        let along = dx * c + dy * s;
-        let cross = dy * c - dx * s;
-        let error = libm::fabsf(along) + libm::fabsf(cross);
+    // Cosine and sine from `libm`: the same bits on the host and the car.
+    let reference = Isometry2::from_parts(
+        Translation2::new(p.x, p.y),
+        UnitComplex::from_cos_sin_unchecked(libm::cosf(p.heading), libm::sinf(p.heading)),
+    );
+    for_each_action(allowed, |a| {
+        let (row, end) = (&mut rows[a], TRAJECTORIES[a].end().position());
+        let local = reference.inverse_transform_point(&end);
+        let error = libm::fabsf(local.x) + libm::fabsf(local.y);
         row[Feature::Path.index()] = if error < PATH_CLIP { error } else { PATH_CLIP };
-        row[Feature::Right.index()] = -RIGHT_SCALE * e.y;
-    }
+        row[Feature::Right.index()] = -RIGHT_SCALE * end.y;
+    });
 }
 
 /// The directions of the scan's beams, `(cos, sin)` of [`beam_bearing`](crate::observation::beam_bearing),
@@ -446,11 +839,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn sample_counts_are_the_trajectories_own() {
+    fn heads_and_tails_are_the_trajectories_samples() {
+        use crate::lattice::{SAMPLE_COUNT, SAMPLE_OF};
         for a in 0..MAX_ACTIONS {
             let n = TRAJECTORIES[a].samples().len();
-            assert_eq!(samples_of(a).0.len(), n, "trajectory {a}");
-            assert_eq!(samples_of(a).1, (SAMPLES / n) as f32, "trajectory {a}");
+            assert_eq!(usize::from(SAMPLE_COUNT[a]), n, "trajectory {a}");
+            let mut samples = HEADS[usize::from(HEAD_OF[a])].to_vec();
+            samples.extend_from_slice(&TAIL_OF[a]);
+            samples.retain(|&u| usize::from(u) != crate::lattice::PAD_SAMPLE);
+            assert_eq!(samples, SAMPLE_OF[a][..n], "trajectory {a}");
+            assert_eq!(ROW_SCALE[a], (SAMPLES / n) as f32, "trajectory {a}");
         }
     }
 

@@ -158,23 +158,23 @@ impl PseudoLoss {
         mut values: [f32; MAX_ACTIONS],
         allowed: ActionMask,
     ) -> Result<Self, LearnError> {
-        let mut min = f32::INFINITY;
-        for a in allowed {
-            let v = values[a.get()];
-            if !v.is_finite() || v.abs() > PSEUDO_LOSS_BOUND {
-                return Err(LearnError::BadPseudoLoss);
-            }
-            if v < min {
-                min = v;
-            }
+        // One comparison per entry for the bound, false for NaN and both infinities; the minimum
+        // in index order (its sign of zero depends on the order), without branches.
+        let bits = allowed.bits();
+        let (mut good, mut min) = (true, f32::INFINITY);
+        for (i, &v) in values.iter().enumerate() {
+            let here = bits >> i & 1 == 1;
+            good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
+            min = if here && v < min { v } else { min };
+        }
+        if !good {
+            return Err(LearnError::BadPseudoLoss);
         }
         if allowed.is_empty() {
             return Err(LearnError::NoAllowedAction);
         }
         for (i, v) in values.iter_mut().enumerate() {
-            // `i < MAX_ACTIONS` by construction of the array.
-            let allowed_here = ActionIndex::new(i).is_some_and(|a| allowed.contains(a));
-            *v = if allowed_here { *v - min } else { 0.0 };
+            *v = if bits >> i & 1 == 1 { *v - min } else { 0.0 };
         }
         Ok(Self {
             values,
@@ -231,6 +231,14 @@ pub trait PseudoLossSource {
     fn is_absolute(&self) -> bool {
         false
     }
+
+    /// The checked and shifted pseudo-loss: [`PseudoLossSource::write_pseudo_loss`], then
+    /// [`PseudoLoss::from_raw`]. An implementation may give the same result by a shorter way.
+    fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
+        let mut raw = [0.0f32; MAX_ACTIONS];
+        self.write_pseudo_loss(round, &mut raw)?;
+        Ok(PseudoLoss::from_raw(raw, round.allowed())?.with_absolute(self.is_absolute()))
+    }
 }
 
 /// The shifted pseudo-loss of `source` for `round`.
@@ -238,9 +246,7 @@ pub fn pseudo_loss<S: PseudoLossSource + ?Sized>(
     source: &S,
     round: &Round<'_>,
 ) -> Result<PseudoLoss, LearnError> {
-    let mut raw = [0.0f32; MAX_ACTIONS];
-    source.write_pseudo_loss(round, &mut raw)?;
-    Ok(PseudoLoss::from_raw(raw, round.allowed())?.with_absolute(source.is_absolute()))
+    source.to_pseudo_loss(round)
 }
 
 /// The teacher names the action it wanted.
@@ -273,6 +279,26 @@ impl PseudoLossSource for ActionFeedback {
 
     fn is_absolute(&self) -> bool {
         true
+    }
+
+    /// Already shifted: the teacher's action, allowed, holds the minimum 0, and every other
+    /// allowed action 100 − 0. The same values as the check and shift of the raw ones, directly.
+    fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
+        round.require_allowed(self.action)?;
+        let bits = round.allowed().bits();
+        let mut values = [0.0f32; MAX_ACTIONS];
+        for (i, v) in values.iter_mut().enumerate() {
+            *v = if bits >> i & 1 == 1 {
+                WRONG_ACTION_LOSS
+            } else {
+                0.0
+            };
+        }
+        values[self.action.get()] = 0.0;
+        Ok(PseudoLoss {
+            values,
+            absolute: true,
+        })
     }
 }
 
@@ -498,6 +524,14 @@ impl PseudoLossSource for Feedback {
             Feedback::Action(f) => f.is_absolute(),
             Feedback::Preference(f) => f.is_absolute(),
             Feedback::Semantic(f) => f.is_absolute(),
+        }
+    }
+
+    fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
+        match self {
+            Feedback::Action(f) => f.to_pseudo_loss(round),
+            Feedback::Preference(f) => f.to_pseudo_loss(round),
+            Feedback::Semantic(f) => f.to_pseudo_loss(round),
         }
     }
 }

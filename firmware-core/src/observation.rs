@@ -21,18 +21,20 @@
 //!
 //! # Validation
 //!
-//! [`Observation::validate`] rejects NaN, infinities and values outside the documented ranges
-//! with an [`ObservationError`] naming the field. The evaluator validates every observation
-//! before reading it.
+//! [`Observation::check`] rejects NaN, infinities and values outside the documented ranges with
+//! an [`ObservationError`] naming the field, and returns a [`ValidObservation`]: the only input
+//! the evaluator takes, so an observation is validated once, where it enters (the agent's
+//! [`act`](crate::agent::Agent::act), the host's teacher), and never again.
 //!
 //! ```
 //! use firmware_core::observation::{Observation, SemanticClass, SemanticObject};
 //!
 //! let mut obs = Observation::open_space();
 //! obs.objects.push(SemanticObject { class: SemanticClass::Door, x: 1.0, y: 0.8, radius: 0.45 }).unwrap();
-//! assert!(obs.validate().is_ok());
+//! let valid = obs.check().unwrap();
+//! assert_eq!(valid.objects.len(), 1); // reads like the observation it wraps
 //! obs.scan.ranges[3] = f32::NAN;
-//! assert!(obs.validate().is_err());
+//! assert!(obs.check().is_err());
 //! ```
 
 use core::f32::consts::PI;
@@ -322,7 +324,15 @@ impl Observation {
         }
     }
 
-    /// Checks every number against its documented range.
+    /// Checks every number against its documented range, and vouches for it with a
+    /// [`ValidObservation`].
+    pub fn check(&self) -> Result<ValidObservation<'_>, ObservationError> {
+        self.validate()?;
+        Ok(ValidObservation(self))
+    }
+
+    /// Checks every number against its documented range ([`Observation::check`] without the
+    /// wrapper).
     pub fn validate(&self) -> Result<(), ObservationError> {
         for (j, &r) in self.scan.ranges.iter().enumerate() {
             if !(r.is_finite() && (0.0..=SCAN_MAX_RANGE).contains(&r)) {
@@ -367,6 +377,28 @@ impl Observation {
     }
 }
 
+/// An observation whose every number is within its documented range: made only by
+/// [`Observation::check`], taken by the [`Evaluator`](crate::evaluator::Evaluator), so that an
+/// observation is validated once. It reads like the observation it wraps (`Deref`).
+#[derive(Clone, Copy, PartialEq, Debug)]
+pub struct ValidObservation<'a>(&'a Observation);
+
+impl<'a> ValidObservation<'a> {
+    /// The observation.
+    #[inline]
+    pub const fn get(self) -> &'a Observation {
+        self.0
+    }
+}
+
+impl core::ops::Deref for ValidObservation<'_> {
+    type Target = Observation;
+    #[inline]
+    fn deref(&self) -> &Observation {
+        self.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -384,6 +416,7 @@ mod tests {
     fn each_field_is_validated() {
         let good = Observation::open_space();
         assert_eq!(good.validate(), Ok(()));
+        assert_eq!(good.check().map(ValidObservation::get), Ok(&good));
         let mut o = good.clone();
         o.scan.ranges[9] = -0.1;
         assert_eq!(o.validate(), Err(ObservationError::ScanRange { beam: 9 }));

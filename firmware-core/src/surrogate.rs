@@ -43,7 +43,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::action::ActionIndex;
+use crate::action::{ActionIndex, MAX_ACTIONS};
 use crate::feature::{FEATURE_COUNT, Features, Weights, dot};
 use crate::feedback::{PseudoLoss, Round};
 
@@ -84,16 +84,27 @@ impl SurrogateEval {
 /// `â`: the minimiser of `Δ` over the allowed actions, ties to the highest score then the lowest
 /// index.
 pub fn target(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> ActionIndex {
+    target_of(&scores(w, round), round, delta)
+}
+
+/// The score `w · φ(a)` of every action (forbidden ones too, never read): one pass without a
+/// branch, shared by the target and the hinge.
+fn scores(w: &Weights, round: &Round<'_>) -> [f32; MAX_ACTIONS] {
+    let mut out = [0.0f32; MAX_ACTIONS];
+    for (s, row) in out.iter_mut().zip(round.features().rows()) {
+        *s = dot(w, row);
+    }
+    out
+}
+
+/// [`target`] from the scores: the same comparisons in the same order.
+fn target_of(scores: &[f32; MAX_ACTIONS], round: &Round<'_>, delta: &PseudoLoss) -> ActionIndex {
     let mut best = round.chosen();
     let mut best_delta = f32::INFINITY;
     let mut best_score = f32::NEG_INFINITY;
     for a in round.allowed() {
-        let d = delta[a];
-        if d > best_delta {
-            continue;
-        }
-        let s = dot(w, round.phi(a));
-        if d < best_delta || s > best_score {
+        let (d, s) = (delta[a], scores[a.get()]);
+        if d <= best_delta && (d < best_delta || s > best_score) {
             best = a;
             best_delta = d;
             best_score = s;
@@ -112,17 +123,15 @@ fn difference(a: &Features, b: &Features) -> Features {
 
 /// The generalized hinge `max_i [Δ_i + (s_i − s_â)]` and its subgradient at `w`.
 pub fn generalized_hinge(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> SurrogateEval {
-    let hat = target(w, round, delta);
-    let s_hat = dot(w, round.phi(hat));
+    let scores = scores(w, round);
+    let hat = target_of(&scores, round, delta);
+    let s_hat = scores[hat.get()];
     // The target's own term is Δ_â + 0 = 0: start there so that ties keep the zero subgradient.
     let mut sel = hat;
     let mut value = delta[hat];
     for a in round.allowed() {
-        if a == hat {
-            continue;
-        }
-        let v = delta[a] + (dot(w, round.phi(a)) - s_hat);
-        if v > value {
+        let v = delta[a] + (scores[a.get()] - s_hat);
+        if a != hat && v > value {
             value = v;
             sel = a;
         }

@@ -8,13 +8,13 @@ use firmware_core::lattice::{Family, SCAN_BEAMS, mirror_action, trajectory};
 use firmware_core::observation::{
     MAX_OBJECTS, Observation, PathReference, SCAN_MAX_RANGE, SemanticClass, SemanticObject,
 };
-use firmware_core::{ActionIndex, ActionMask, Feature, FeatureTable};
+use firmware_core::{ActionIndex, ActionMask, FEATURE_COUNT, Feature, FeatureTable};
 use proptest::prelude::*;
 use support::naive;
 
 fn evaluate(obs: &Observation) -> (FeatureTable, ActionMask) {
     let mut table = FeatureTable::ZERO;
-    let mask = Evaluator::new().evaluate(obs, &mut table).unwrap();
+    let mask = Evaluator::new().evaluate(obs.check().unwrap(), &mut table);
     (table, mask)
 }
 
@@ -93,13 +93,18 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
 
     /// The pruned evaluator and the brute-force one (exact square roots, every beam) agree: the
-    /// same collision mask, and every feature within the documented bound.
+    /// same collision mask, and every feature of every trajectory that does not collide within
+    /// the documented bound. The rows of colliding trajectories are zero.
     #[test]
     fn evaluator_matches_brute_force(obs in observation()) {
         let (table, mask) = evaluate(&obs);
         let reference = naive::evaluate(&obs).unwrap();
         for a in ActionIndex::all() {
             prop_assert_eq!(!mask.contains(a), reference.collides[a.get()], "collision of {}", a);
+            if !mask.contains(a) {
+                prop_assert_eq!(table[a], [0.0; FEATURE_COUNT], "row of colliding {}", a);
+                continue;
+            }
             for (f, (x, y)) in table[a].iter().zip(reference.features[a.get()].iter()).enumerate() {
                 prop_assert!((x - y).abs() <= FEATURE_ERROR_BOUND, "feature {} of {}: {} vs {}", f, a, x, y);
             }
@@ -136,14 +141,48 @@ proptest! {
     }
 }
 
+/// The reference's constants are its own, written from the documented feature definitions; the
+/// crate's must equal them, so a changed constant fails here by name (and not only in a hash).
 #[test]
-fn invalid_observations_are_refused_and_the_table_untouched() {
+fn crate_constants_equal_the_documented_ones_of_the_reference() {
+    use firmware_core::evaluator::{COLLISION_RADIUS, PATH_CLIP, RIGHT_SCALE, SEMANTIC_CLIP};
+    use firmware_core::lattice::{OBSTACLE_CLIP, SAMPLES};
+    assert_eq!(
+        COLLISION_RADIUS,
+        naive::COLLISION_RADIUS,
+        "collision radius"
+    );
+    assert_eq!(OBSTACLE_CLIP, naive::OBSTACLE_CLIP, "obstacle clip");
+    assert_eq!(SEMANTIC_CLIP, naive::SEMANTIC_CLIP, "semantic clip");
+    assert_eq!(PATH_CLIP, naive::PATH_CLIP, "path clip");
+    assert_eq!(RIGHT_SCALE, naive::RIGHT_SCALE, "lateral scale");
+    assert_eq!(
+        SAMPLES,
+        naive::COUNTED_SAMPLES,
+        "samples a trajectory counts as"
+    );
+    // A class with no object: the same reading in both.
+    let (table, _) = evaluate(&Observation::open_space());
+    for a in ActionIndex::all() {
+        for class in SemanticClass::ALL {
+            assert_eq!(table[a][class.feature().index()], naive::ABSENT_CLASS);
+        }
+    }
+}
+
+#[test]
+fn invalid_observations_are_refused_before_the_evaluator() {
     let mut obs = Observation::open_space();
     obs.scan.ranges[10] = f32::NAN;
-    let mut table = FeatureTable::ZERO;
-    table[ActionIndex::FIRST][0] = 42.0;
-    assert!(Evaluator::new().evaluate(&obs, &mut table).is_err());
-    assert_eq!(table[ActionIndex::FIRST][0], 42.0);
+    assert!(
+        obs.check().is_err(),
+        "no ValidObservation, so no evaluation"
+    );
+    // The evaluation the agent can take is the evaluator's own, bit for bit.
+    let good = Observation::open_space();
+    let (table, mask) = evaluate(&good);
+    let evaluation = Evaluator::new().evaluation(good.check().unwrap());
+    assert_eq!((evaluation.table(), evaluation.allowed()), (&table, mask));
 }
 
 /// A wall ahead at `x` metres: every beam that points forwards hits it.

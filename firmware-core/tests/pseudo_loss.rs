@@ -40,6 +40,39 @@ fn action_feedback_is_zero_for_the_teacher_and_100_elsewhere() {
     assert_eq!(&d.values()[..4], &[100.0, 100.0, 0.0, 0.0]);
 }
 
+/// Action feedback builds its pseudo-loss directly, without the raw values and their shift:
+/// the same values, bit for bit, as the general path, for every mask and every teacher's action.
+#[test]
+fn action_feedback_shortcut_equals_the_raw_values_shifted() {
+    use firmware_core::{PseudoLoss, PseudoLossSource};
+    let t = FeatureTable::ZERO;
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    for _ in 0..2000 {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        let mask = ActionMask::from_bits(state | 1 << (state % 64));
+        let allowed: Vec<ActionIndex> = mask.into_iter().collect();
+        let chosen = allowed[(state >> 8) as usize % allowed.len()];
+        let teacher = allowed[(state >> 20) as usize % allowed.len()];
+        let round = Round::new(&t, mask, chosen).unwrap();
+        let fb = ActionFeedback { action: teacher };
+        let mut raw = [0.0f32; 64];
+        fb.write_pseudo_loss(&round, &mut raw).unwrap();
+        let general = PseudoLoss::from_raw(raw, mask).unwrap().with_absolute(true);
+        assert_eq!(fb.to_pseudo_loss(&round).unwrap(), general);
+        let bits = |d: &PseudoLoss| d.values().map(f32::to_bits);
+        assert_eq!(bits(&pseudo_loss(&fb, &round).unwrap()), bits(&general));
+    }
+    // A teacher's action the round does not allow is refused the same way.
+    let (t, m) = scene();
+    let round = Round::new(&t, m, a(0)).unwrap();
+    assert_eq!(
+        ActionFeedback { action: a(3) }.to_pseudo_loss(&round),
+        Err(LearnError::ActionNotAllowed(a(3)))
+    );
+}
+
 #[test]
 fn preference_feedback_follows_the_norm_difference_shifted_to_zero() {
     // Δ(a) = ‖φ_p − φ_a‖ − ‖φ_np − φ_a‖ with p = 1, np = 2:

@@ -1,5 +1,6 @@
 //! Any sequence of CAN frames fed to the reassemblers gives `Consumed`, `Complete` or `Error`,
-//! never a panic, and a completed message never exceeds its buffer.
+//! never a panic, and a completed message never exceeds its buffer; the car's inbox opens
+//! every completed PDU with its endpoint (key 0x42…, epoch 3).
 //!
 //! Input: a sequence of records `[ctrl][len][data...]` (the format `fuzz_seeds` writes):
 //! * `ctrl` bits 0–2: the stream: 0–5 the host → car identifier of class 0–5, 6 the car → host
@@ -16,6 +17,7 @@ use protocol::can::{CanFrame, CanId, FD_LENGTHS};
 use protocol::isotp::{FeedResult, Reassembler};
 use protocol::link::{Inbox, Received};
 use protocol::message::MAX_MESSAGE_SIZE;
+use protocol::secure::{CarSecurity, Key};
 use protocol::stream::{Class, Direction, Stream};
 
 fn id(selector: u8) -> CanId {
@@ -28,6 +30,7 @@ fn id(selector: u8) -> CanId {
 
 fuzz_target!(|data: &[u8]| {
     let mut inbox = Inbox::new(Direction::HostToCar);
+    let mut car = CarSecurity::new(&Key::new([0x42; 16]), 3);
     let mut small = Reassembler::<32>::new();
     let mut big: Reassembler = Reassembler::new();
     let mut now = 0u32;
@@ -52,7 +55,7 @@ fuzz_target!(|data: &[u8]| {
         }
         .expect("valid lengths by construction");
 
-        match inbox.feed(&frame, now) {
+        match inbox.feed(&frame, now, &mut car) {
             Received::Message(m) => {
                 let stream = Stream::from_id(frame.id()).expect("a message came on a stream");
                 assert!(stream.carries(m.kind()));

@@ -1,14 +1,20 @@
-//! The `hil_mock` command line: `serve`, `replay`, `bench-latency`.
+//! The `hil_mock` command line: `keygen`, `serve`, `replay`, `bench-latency`.
 //!
 //! ```text
-//! hil_mock serve --link udp-listen://127.0.0.1:47000 --flash car.flash [--watchdog-ms 200]
-//!                [--record bus.log] [--faults drop=0.1,corrupt=0.01,seed=7] [--frame-mode fd]
+//! hil_mock keygen car.key
+//! hil_mock serve --link udp-listen://127.0.0.1:47000 --key car.key --flash car.flash
+//!                [--init-flash] [--watchdog-ms 200] [--record bus.log]
+//!                [--faults drop=0.1,corrupt=0.01,seed=7] [--frame-mode fd] [--idle-timeout-ms N]
+//! hil_mock serve --link ... --insecure      # the public all-zero key, announced at every start
 //! hil_mock replay bus.log --link udp://127.0.0.1:47000 [--realtime]
 //! hil_mock bench-latency [--link udp] [--count 10000]
 //! ```
 //!
-//! `serve` prints one line `listening on ADDRESS` on stdout once its link is open (with the real
-//! port when the address asked for port 0), then serves until killed or the link closes.
+//! `serve` refuses to start without `--key FILE` or `--insecure`. It prints one line
+//! `listening on ADDRESS` on stdout once its link is open (with the real port when the address
+//! asked for port 0), then serves until killed (a listening slcan link serves one connection
+//! after another; a connecting link ends when its peer closes). Each start takes a new random
+//! epoch, so nothing recorded before it is accepted after it.
 //! [`main`] is the whole program, so another package can build the same binary (the end-to-end
 //! tests do, to kill it with SIGKILL).
 
@@ -30,10 +36,15 @@ use protocol::link::{Inbox, Received, transmit};
 use protocol::message::{Message, ObservationMessage};
 use protocol::stream::Direction;
 
-use crate::server::{LinkBus, Server, StartState};
+use protocol::message::ConfigureMessage;
+use protocol::secure::HostSecurity;
+
+use crate::flash::Open;
+use crate::key;
+use crate::server::{LinkBus, Server, StartState, fresh_learner};
 use crate::transport::fault::{FaultConfig, FaultyLink};
 use crate::transport::record::{RecordingLink, read_log, replay};
-use crate::transport::slcan::SlcanLink;
+use crate::transport::slcan::{DEFAULT_IDLE_TIMEOUT, SlcanListener};
 use crate::transport::udp::UdpLink;
 use crate::transport::{Link, LinkAddress};
 
@@ -65,15 +76,30 @@ impl From<Mode> for FrameMode {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Write a new random 128-bit key to FILE (mode 0600; never overwrites).
+    Keygen {
+        /// The key file to create.
+        file: PathBuf,
+    },
     /// Run the car's controller on a link.
     Serve {
         /// Where to listen or connect: udp-listen://127.0.0.1:PORT, udp://…,
         /// slcan+tcp-listen://127.0.0.1:PORT, slcan+tcp://…, slcan+serial:///dev/…, socketcan://IFACE.
         #[arg(long)]
         link: String,
-        /// The flash file (two pages); restored on start. Without it nothing persists.
+        /// The car's key file (`hil_mock keygen FILE`).
+        #[arg(long, conflicts_with = "insecure")]
+        key: Option<PathBuf>,
+        /// Run with the public all-zero key: anyone on the bus can drive and teach the car.
+        #[arg(long)]
+        insecure: bool,
+        /// The flash image (a header and two pages); restored on start, created if missing.
+        /// Without it nothing persists. A file that is not an image is refused.
         #[arg(long)]
         flash: Option<PathBuf>,
+        /// Erase the --flash file into an empty image first, whatever it holds.
+        #[arg(long, requires = "flash")]
+        init_flash: bool,
         /// Command a stop after this long without an observation (ms).
         #[arg(long, default_value_t = 200)]
         watchdog_ms: u32,
@@ -87,9 +113,13 @@ enum Command {
         /// The frames the car transmits.
         #[arg(long, value_enum, default_value_t = Mode::Fd)]
         frame_mode: Mode,
-        /// How long a listening slcan link waits for its peer (s).
+        /// A listening slcan link closes a connection that brought no authenticated message
+        /// for this long and serves the next (ms).
+        #[arg(long, default_value_t = DEFAULT_IDLE_TIMEOUT.as_millis() as u64)]
+        idle_timeout_ms: u64,
+        /// How long a connecting link waits for its peer (s).
         #[arg(long, default_value_t = 60)]
-        accept_timeout_s: u64,
+        connect_timeout_s: u64,
     },
     /// Send the frames of a candump log through a link.
     Replay {
@@ -142,15 +172,29 @@ pub fn run_from(args: impl IntoIterator<Item = OsString>) -> ExitCode {
 
 fn run(command: Command) -> Result<()> {
     match command {
+        Command::Keygen { file } => {
+            key::keygen(&file)?;
+            println!(
+                "wrote a new key to {}; give it to the car (hil_mock serve --key, or the \
+                 firmware's CAR_KEY_FILE) and to its hosts (host-sim run --key)",
+                file.display()
+            );
+            Ok(())
+        }
         Command::Serve {
             link,
+            key,
+            insecure,
             flash,
+            init_flash,
             watchdog_ms,
             record,
             faults,
             frame_mode,
-            accept_timeout_s,
+            idle_timeout_ms,
+            connect_timeout_s,
         } => {
+            let key = key::choose(key.as_deref(), insecure, "hil_mock")?;
             let address: LinkAddress = link.parse()?;
             let faults = faults
                 .map(|f| f.parse::<FaultConfig>().map_err(anyhow::Error::msg))
@@ -160,18 +204,29 @@ fn run(command: Command) -> Result<()> {
                 watchdog_ms,
                 mode: frame_mode.into(),
             };
+            let epoch = key::random_epoch()?;
             let mut server = match &flash {
                 Some(path) => {
-                    let (server, state) = Server::with_flash(config, path)?;
+                    let open = if init_flash {
+                        Open::Initialise
+                    } else {
+                        Open::Existing
+                    };
+                    let (server, state) = Server::with_flash(config, path, open, &key, epoch)?;
                     eprintln!("hil_mock: flash {}: {state}", path.display());
                     server
                 }
                 None => {
                     eprintln!("hil_mock: {}", StartState::NoFlash);
-                    Server::in_memory(config)
+                    Server::in_memory(config, &key, epoch)
                 }
             };
-            let link = open_serving(&address, Duration::from_secs(accept_timeout_s))?;
+            eprintln!("hil_mock: epoch {epoch}, {}", server.node().status());
+            let link = open_serving(
+                &address,
+                Duration::from_millis(idle_timeout_ms),
+                Duration::from_secs(connect_timeout_s),
+            )?;
             let link = wrap(link, record.as_deref(), faults)?;
             serve(&mut server, link)
         }
@@ -207,7 +262,11 @@ fn run(command: Command) -> Result<()> {
 
 /// Opens a link for serving; a listening address on port 0 gets an ephemeral port. Prints
 /// `listening on ADDRESS` (or `connected to ADDRESS`) on stdout.
-fn open_serving(address: &LinkAddress, accept_timeout: Duration) -> Result<Box<dyn Link>> {
+fn open_serving(
+    address: &LinkAddress,
+    idle_timeout: Duration,
+    connect_timeout: Duration,
+) -> Result<Box<dyn Link>> {
     let say = |what: &str, a: &str| {
         println!("{what} {a}");
         let _ = std::io::stdout().flush();
@@ -232,10 +291,10 @@ fn open_serving(address: &LinkAddress, accept_timeout: Duration) -> Result<Box<d
                 "listening on",
                 &LinkAddress::SlcanTcpListen(local).to_string(),
             );
-            Box::new(SlcanLink::accept_from(&listener, accept_timeout)?)
+            Box::new(SlcanListener::from_listener(listener, idle_timeout)?)
         }
         other => {
-            let link = other.open(accept_timeout)?;
+            let link = other.open(connect_timeout)?;
             say("connected to", &other.to_string());
             link
         }
@@ -262,12 +321,15 @@ fn serve(server: &mut Server, mut link: Box<dyn Link>) -> Result<()> {
     let stop = AtomicBool::new(false);
     match server.run(&mut *link, &stop) {
         Ok(()) => Ok(()),
-        // The host hung up (a TCP peer closed): the end of a session, not a failure.
+        // The peer hung up (a connecting link's TCP peer closed): the end of a session.
         Err(crate::transport::LinkError::Closed(why)) => {
-            eprintln!("hil_mock: link closed ({why}); {:?}", server.node().stats());
+            eprintln!("hil_mock: link closed ({why}); {}", server.summary());
             Ok(())
         }
-        Err(e) => Err(anyhow::Error::new(e).context(format!("serving on {}", link.describe()))),
+        Err(e) => {
+            eprintln!("hil_mock: {}", server.summary());
+            Err(anyhow::Error::new(e).context(format!("serving on {}", link.describe())))
+        }
     }
 }
 
@@ -293,17 +355,46 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
     let SocketAddr::V4(car_addr) = car_link.local_addr()? else {
         bail!("udp bound to a non-IPv4 address");
     };
+    let key = key::random_key()?;
+    let epoch = key::random_epoch()?;
     let stop = Arc::new(AtomicBool::new(false));
     let flag = stop.clone();
+    let car_key = key.clone();
     let server = std::thread::spawn(move || {
-        let mut server = Server::in_memory(CarConfig {
-            mode: FrameMode::Fd,
-            ..CarConfig::default()
-        });
+        let mut server = Server::in_memory(
+            CarConfig {
+                mode: FrameMode::Fd,
+                ..CarConfig::default()
+            },
+            &car_key,
+            epoch,
+        );
         server.run(&mut car_link, &flag)
     });
     let mut host = UdpLink::connect(car_addr)?;
+    let mut sec = HostSecurity::assume_fresh_car(&key, epoch);
     let mut inbox = Inbox::new(Direction::CarToHost);
+    // Configure first: a car without a configured learner does not act.
+    let configure = Message::Configure(ConfigureMessage {
+        session: 1,
+        snapshot: fresh_learner().snapshot(),
+    });
+    transmit(
+        &mut LinkBus(&mut host),
+        &configure,
+        Direction::HostToCar,
+        FrameMode::Fd,
+        &mut sec,
+    )
+    .map_err(|e| anyhow::anyhow!("send: {e}"))?;
+    loop {
+        let Some(f) = host.recv(Duration::from_secs(5))? else {
+            bail!("no answer to the configuration within 5 s");
+        };
+        if let Received::Message(Message::Weights(_)) = inbox.feed(&f, 0, &mut sec) {
+            break;
+        }
+    }
     let mut samples = Vec::with_capacity(count as usize);
     let mut frames_per_observation = 0;
     let warmup = 100;
@@ -320,6 +411,7 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
             &msg,
             Direction::HostToCar,
             FrameMode::Fd,
+            &mut sec,
         )
         .map_err(|e| anyhow::anyhow!("send: {e}"))?;
         let deadline = t0 + Duration::from_secs(5);
@@ -329,8 +421,9 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
                 bail!("no action for tick {tick} within 5 s");
             }
             let Some(f) = host.recv(left)? else { continue };
-            if let Received::Message(Message::Action(a)) = inbox.feed(&f, 0)
+            if let Received::Message(Message::Action(a)) = inbox.feed(&f, 0, &mut sec)
                 && a.tick == tick
+                && a.answers_observation()
             {
                 break;
             }
@@ -378,12 +471,65 @@ mod tests {
             code(&[
                 "hil_mock",
                 "serve",
+                "--insecure",
                 "--link",
                 "udp-listen://127.0.0.1:0",
                 "--faults",
                 "drop=7"
             ]),
             ExitCode::FAILURE
+        );
+        // Without a key, or with both a key and --insecure, the car does not start.
+        assert_eq!(
+            code(&["hil_mock", "serve", "--link", "udp-listen://127.0.0.1:0"]),
+            ExitCode::FAILURE
+        );
+        assert_ne!(
+            code(&[
+                "hil_mock",
+                "serve",
+                "--key",
+                "k",
+                "--insecure",
+                "--link",
+                "udp-listen://127.0.0.1:0"
+            ]),
+            ExitCode::SUCCESS
+        );
+    }
+
+    #[test]
+    fn keygen_writes_a_key_and_serve_refuses_a_file_that_is_not_a_flash_image() {
+        let dir = tempfile::tempdir().unwrap();
+        let key = dir.path().join("car.key");
+        let k = key.display().to_string();
+        assert_eq!(code(&["hil_mock", "keygen", &k]), ExitCode::SUCCESS);
+        assert!(crate::key::read_key_file(&key).is_ok());
+        assert_eq!(
+            code(&["hil_mock", "keygen", &k]),
+            ExitCode::FAILURE,
+            "no overwrite"
+        );
+        let notes = dir.path().join("notes.txt");
+        std::fs::write(&notes, vec![b'x'; 100_000]).unwrap();
+        let n = notes.display().to_string();
+        assert_eq!(
+            code(&[
+                "hil_mock",
+                "serve",
+                "--key",
+                &k,
+                "--flash",
+                &n,
+                "--link",
+                "udp-listen://127.0.0.1:0"
+            ]),
+            ExitCode::FAILURE
+        );
+        assert_eq!(
+            std::fs::read(&notes).unwrap(),
+            vec![b'x'; 100_000],
+            "untouched"
         );
     }
 
@@ -426,7 +572,7 @@ mod tests {
     fn the_latency_bench_runs() {
         let r = bench_latency(50).unwrap();
         assert_eq!(r.count, 50);
-        assert!(r.frames_per_observation >= 5, "{r:?}");
+        assert!(r.frames_per_observation >= 2, "{r:?}");
         assert!(r.p50_us <= r.p99_us && r.p99_us <= r.max_us);
     }
 }

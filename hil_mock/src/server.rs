@@ -1,9 +1,14 @@
-//! The car's controller over a [`Link`]: a [`CarNode`], its flash, and the poll loop.
+//! The car's controller over a [`Link`]: a [`CarNode`], its key and flash, and the poll loop.
 //!
 //! [`Server`] owns the node and the store; [`Server::run`] receives frames with a short timeout,
 //! hands each to [`CarNode::on_frame`] and calls [`CarNode::poll`] between them (watchdog,
 //! reassembly timeouts), until asked to stop or the link fails. The clock is the milliseconds
 //! since the server started.
+//!
+//! What goes wrong on the link (malformed packets, lost messages, refused messages, answers the
+//! OS could not send) is counted and written to stderr at a bounded rate ([`Reports`]): the
+//! first few in full, then one summary line at most every [`SUMMARY_INTERVAL`] while anything
+//! new happened, so a flood cannot flood the log.
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -11,9 +16,10 @@ use std::time::{Duration, Instant};
 
 use firmware_core::{Learner, ValidLearnerParams};
 use protocol::can::{CanBus, CanFrame};
-use protocol::car::{CarConfig, CarNode, Persist, Persisted};
+use protocol::car::{CarConfig, CarNode, Outcome, Persist, Persisted};
+use protocol::secure::{Key, Refusal};
 
-use crate::flash::{FlashError, FlashStore, PageStatus};
+use crate::flash::{FlashError, FlashStore, Open, PageStatus};
 use crate::transport::{Link, LinkError};
 
 /// A [`Link`] seen as the protocol's [`CanBus`].
@@ -29,6 +35,10 @@ impl<L: Link + ?Sized> CanBus for LinkBus<'_, L> {
 
     fn receive(&mut self) -> Result<Option<CanFrame>, LinkError> {
         self.0.recv(Duration::ZERO)
+    }
+
+    fn authenticated(&mut self, fresh: bool) {
+        self.0.authenticated(fresh)
     }
 }
 
@@ -69,7 +79,7 @@ pub enum StartState {
     Restored {
         /// The page used.
         page: usize,
-        /// Its generation.
+        /// Its write count.
         generation: u32,
         /// What each page held (the other may be corrupt: a fallback).
         pages: [PageStatus; 2],
@@ -80,14 +90,16 @@ impl std::fmt::Display for StartState {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let describe = |p: &PageStatus| match p {
             PageStatus::Empty => "empty".to_string(),
-            PageStatus::Good(g) => format!("good (generation {g})"),
+            PageStatus::Good(g) => format!("good (write {g})"),
             PageStatus::Corrupt => "corrupt".to_string(),
         };
         match self {
-            StartState::NoFlash => f.write_str("no flash file: fresh learner, nothing persisted"),
+            StartState::NoFlash => {
+                f.write_str("no flash file: no configured learner, nothing persisted")
+            }
             StartState::Fresh { pages } => write!(
                 f,
-                "flash holds no good page (page 0 {}, page 1 {}): fresh learner",
+                "flash holds no good page (page 0 {}, page 1 {}): no configured learner",
                 describe(&pages[0]),
                 describe(&pages[1])
             ),
@@ -98,7 +110,7 @@ impl std::fmt::Display for StartState {
             } => {
                 write!(
                     f,
-                    "restored generation {generation} from page {page} (page 0 {}, page 1 {})",
+                    "restored write {generation} from page {page} (page 0 {}, page 1 {})",
                     describe(&pages[0]),
                     describe(&pages[1])
                 )?;
@@ -111,33 +123,190 @@ impl std::fmt::Display for StartState {
     }
 }
 
-/// The car's controller: node, store, clock.
+/// The least time between two summary lines on stderr.
+pub const SUMMARY_INTERVAL: Duration = Duration::from_secs(10);
+
+/// How many problems are written out in full before only summaries follow.
+pub const FIRST_LINES: u32 = 5;
+
+/// What went wrong once, for [`Reports`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Problem {
+    /// The transport received bytes that are not a packet or line of its format.
+    Malformed(String),
+    /// A message was lost (reassembly, decoding, wrong stream).
+    Lost,
+    /// A message was refused (authentication or freshness).
+    Refused(Refusal),
+    /// The OS refused to send an answer (the host's port closed while it restarts, ...).
+    AnswerLost(String),
+}
+
+/// Counters of [`Problem`]s.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ProblemCounts {
+    /// Malformed transport input.
+    pub malformed: u64,
+    /// Lost messages.
+    pub lost: u64,
+    /// Refused messages: MAC failures.
+    pub refused_mac: u64,
+    /// Refused messages: copies and messages older than the replay window.
+    pub refused_stale: u64,
+    /// Answers the OS did not send.
+    pub answers_lost: u64,
+}
+
+impl ProblemCounts {
+    fn total(&self) -> u64 {
+        self.malformed + self.lost + self.refused_mac + self.refused_stale + self.answers_lost
+    }
+
+    fn minus(&self, o: &Self) -> Self {
+        Self {
+            malformed: self.malformed - o.malformed,
+            lost: self.lost - o.lost,
+            refused_mac: self.refused_mac - o.refused_mac,
+            refused_stale: self.refused_stale - o.refused_stale,
+            answers_lost: self.answers_lost - o.answers_lost,
+        }
+    }
+}
+
+impl std::fmt::Display for ProblemCounts {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} malformed packets or lines, {} messages lost, {} refused (MAC {}, replayed or stale {}), {} answers not sent",
+            self.malformed,
+            self.lost,
+            self.refused_mac + self.refused_stale,
+            self.refused_mac,
+            self.refused_stale,
+            self.answers_lost
+        )
+    }
+}
+
+/// Counts problems and says what to write on stderr, at a bounded rate (time passed in).
+#[derive(Debug)]
+pub struct Reports {
+    counts: ProblemCounts,
+    at_last_summary: ProblemCounts,
+    printed: u32,
+    last_summary: Option<Instant>,
+}
+
+impl Reports {
+    /// No problem yet; the first summary comes [`SUMMARY_INTERVAL`] after `now`.
+    pub fn new(now: Instant) -> Self {
+        Self {
+            counts: ProblemCounts::default(),
+            at_last_summary: ProblemCounts::default(),
+            printed: 0,
+            last_summary: Some(now),
+        }
+    }
+
+    /// Everything counted so far.
+    pub fn counts(&self) -> ProblemCounts {
+        self.counts
+    }
+
+    /// Counts `p`; returns the line to write if it is among the first [`FIRST_LINES`].
+    pub fn note(&mut self, p: &Problem) -> Option<String> {
+        let c = &mut self.counts;
+        match p {
+            Problem::Malformed(_) => c.malformed += 1,
+            Problem::Lost => c.lost += 1,
+            Problem::Refused(Refusal::Mac | Refusal::Unkeyed) => c.refused_mac += 1,
+            Problem::Refused(_) => c.refused_stale += 1,
+            Problem::AnswerLost(_) => c.answers_lost += 1,
+        }
+        if self.printed >= FIRST_LINES {
+            return None;
+        }
+        self.printed += 1;
+        let more = if self.printed == FIRST_LINES {
+            format!(
+                "; from now on a summary at most every {} s",
+                SUMMARY_INTERVAL.as_secs()
+            )
+        } else {
+            String::new()
+        };
+        Some(match p {
+            Problem::Malformed(d) => format!("skipped: {d}{more}"),
+            Problem::Lost => format!("a message was lost on the way{more}"),
+            Problem::Refused(r) => format!("refused a message: {r}{more}"),
+            Problem::AnswerLost(d) => format!("an answer was lost: {d}{more}"),
+        })
+    }
+
+    /// The summary line to write at `now`, if one is due and anything happened since the last.
+    pub fn summary(&mut self, now: Instant) -> Option<String> {
+        let due = self
+            .last_summary
+            .is_none_or(|t| now.duration_since(t) >= SUMMARY_INTERVAL);
+        if !due || self.counts == self.at_last_summary {
+            return None;
+        }
+        let since = self.counts.minus(&self.at_last_summary);
+        self.at_last_summary = self.counts;
+        self.last_summary = Some(now);
+        (since.total() > 0).then(|| {
+            format!(
+                "in the last {} s: {since} (in all: {})",
+                SUMMARY_INTERVAL.as_secs(),
+                self.counts
+            )
+        })
+    }
+}
+
+/// The car's controller: node, store, clock, reports.
 #[derive(Debug)]
 pub struct Server {
     node: CarNode,
     store: Store,
     start: Instant,
+    reports: Reports,
 }
 
 /// How long one receive waits before the server polls the node again.
 pub const POLL_INTERVAL: Duration = Duration::from_millis(2);
 
 impl Server {
-    /// A server with a fresh default learner persisting in RAM.
-    pub fn in_memory(config: CarConfig) -> Self {
+    /// A server with a fresh default learner, never configured, persisting in RAM, with `key`
+    /// in `epoch`.
+    pub fn in_memory(config: CarConfig, key: &Key, epoch: u32) -> Self {
+        let mut node = CarNode::new(config, fresh_learner());
+        node.install_key(key, epoch);
+        Self::with_node(node, Store::Memory(None))
+    }
+
+    fn with_node(node: CarNode, store: Store) -> Self {
+        let start = Instant::now();
         Self {
-            node: CarNode::new(config, fresh_learner()),
-            store: Store::Memory(None),
-            start: Instant::now(),
+            node,
+            store,
+            start,
+            reports: Reports::new(start),
         }
     }
 
-    /// A server persisting to the flash file at `path`, restored from it when it holds a good
-    /// page.
-    pub fn with_flash(config: CarConfig, path: &Path) -> Result<(Self, StartState), FlashError> {
-        let (store, restored) = FlashStore::open(path)?;
+    /// A server persisting to the flash file at `path` (see [`FlashStore::open`] for `open`),
+    /// restored from it when it holds a good page, with `key` in `epoch`.
+    pub fn with_flash(
+        config: CarConfig,
+        path: &Path,
+        open: Open,
+        key: &Key,
+        epoch: u32,
+    ) -> Result<(Self, StartState), FlashError> {
+        let (store, restored) = FlashStore::open(path, open)?;
         let pages = store.pages();
-        let (node, state) = match restored {
+        let (mut node, state) = match restored {
             Some(r) => {
                 // The page's snapshot passed `Learner::restore` already.
                 let node = CarNode::restore(config, &r.state)
@@ -154,12 +323,8 @@ impl Server {
                 StartState::Fresh { pages },
             ),
         };
-        let server = Self {
-            node,
-            store: Store::Flash(store),
-            start: Instant::now(),
-        };
-        Ok((server, state))
+        node.install_key(key, epoch);
+        Ok((Self::with_node(node, Store::Flash(store)), state))
     }
 
     /// The node.
@@ -167,30 +332,65 @@ impl Server {
         &self.node
     }
 
+    /// The problems counted so far.
+    pub fn problems(&self) -> ProblemCounts {
+        self.reports.counts()
+    }
+
     /// Milliseconds since the server started (wrapping).
     fn now_ms(&self) -> u32 {
         self.start.elapsed().as_millis() as u32
     }
 
-    /// Waits up to `timeout` for one frame and handles it, then polls the node. Malformed input
-    /// is reported on stderr and skipped; other link failures are returned.
+    fn report(&mut self, p: Problem) {
+        if let Some(line) = self.reports.note(&p) {
+            eprintln!("hil_mock: {line}");
+        }
+    }
+
+    /// Waits up to `timeout` for one frame and handles it, then polls the node. Malformed input,
+    /// lost and refused messages and answers the OS did not send are counted and reported at a
+    /// bounded rate; other link failures are returned.
     pub fn step(&mut self, link: &mut dyn Link, timeout: Duration) -> Result<(), LinkError> {
         let got = match link.recv(timeout) {
             Ok(f) => f,
             Err(e @ LinkError::Malformed { .. }) => {
-                eprintln!("hil_mock: skipped: {e}");
+                self.report(Problem::Malformed(e.to_string()));
                 None
             }
             Err(e) => return Err(e),
         };
-        let mut bus = LinkBus(link);
         if let Some(frame) = got {
             let now = self.now_ms();
-            let sent = self.node.on_frame(&frame, now, &mut bus, &mut self.store);
-            transient(sent)?;
+            let sent = self
+                .node
+                .on_frame(&frame, now, &mut LinkBus(link), &mut self.store);
+            match self.transient(sent)? {
+                Some(Outcome::Lost) => self.report(Problem::Lost),
+                Some(Outcome::Refused(r)) => self.report(Problem::Refused(r)),
+                _ => {}
+            }
         }
         let now = self.now_ms();
-        transient(self.node.poll(now, &mut bus))
+        let polled = self.node.poll(now, &mut LinkBus(link));
+        self.transient(polled)?;
+        if let Some(line) = self.reports.summary(Instant::now()) {
+            eprintln!("hil_mock: {line}");
+        }
+        Ok(())
+    }
+
+    /// A send the OS refused (the host's port closed while it restarts, a full buffer) loses one
+    /// answer, which the host asks for again: counted, not fatal.
+    fn transient<T>(&mut self, r: Result<T, LinkError>) -> Result<Option<T>, LinkError> {
+        match r {
+            Ok(t) => Ok(Some(t)),
+            Err(e @ LinkError::Io { .. }) => {
+                self.report(Problem::AnswerLost(e.to_string()));
+                Ok(None)
+            }
+            Err(e) => Err(e),
+        }
     }
 
     /// Serves until `stop` is set or the link fails.
@@ -200,17 +400,31 @@ impl Server {
         }
         Ok(())
     }
-}
 
-/// A send the OS refused (the host's port closed while it restarts, a full buffer) loses one
-/// answer, which the host asks for again: reported, not fatal.
-fn transient(r: Result<(), LinkError>) -> Result<(), LinkError> {
-    match r {
-        Err(e @ LinkError::Io { .. }) => {
-            eprintln!("hil_mock: an answer was lost: {e}");
-            Ok(())
-        }
-        other => other,
+    /// One line with the node's counters and the problems, for the end of a session.
+    pub fn summary(&self) -> String {
+        let s = self.node.stats();
+        format!(
+            "{} observations, {} actions, {} feedback applied ({} copies, {} refused), {} stops \
+             (watchdog {}, commanded {}), refused messages {} (MAC {}, replayed {}, stale {}), \
+             {} lost, {} error reports, {} failed writes; {}",
+            s.observations,
+            s.actions,
+            s.feedback_applied,
+            s.feedback_duplicates,
+            s.feedback_refused,
+            s.watchdog_stops + s.commanded_stops,
+            s.watchdog_stops,
+            s.commanded_stops,
+            s.refused.total(),
+            s.refused.mac,
+            s.refused.replayed,
+            s.refused.stale,
+            s.lost,
+            s.errors,
+            s.persist_failures,
+            self.reports.counts()
+        )
     }
 }
 
@@ -226,9 +440,12 @@ mod tests {
     use firmware_core::observation::Observation;
     use protocol::isotp::FrameMode;
     use protocol::link::{Inbox, Received, transmit};
-    use protocol::message::{Message, ObservationMessage};
+    use protocol::message::{ConfigureMessage, Message, ObservationMessage};
+    use protocol::secure::HostSecurity;
     use protocol::stream::Direction;
     use std::sync::Arc;
+
+    const KEY: Key = Key::new([9; 16]);
 
     #[test]
     fn a_server_thread_answers_observations_over_a_memory_link() {
@@ -236,34 +453,50 @@ mod tests {
         let stop = Arc::new(AtomicBool::new(false));
         let flag = stop.clone();
         let handle = std::thread::spawn(move || {
-            let mut server = Server::in_memory(CarConfig {
-                mode: FrameMode::Fd,
-                ..CarConfig::default()
-            });
+            let mut server = Server::in_memory(
+                CarConfig {
+                    mode: FrameMode::Fd,
+                    ..CarConfig::default()
+                },
+                &KEY,
+                5,
+            );
             server.run(&mut car, &flag).map(|()| server.node().stats())
         });
+        let mut sec = HostSecurity::assume_fresh_car(&KEY, 5);
         let mut inbox = Inbox::new(Direction::CarToHost);
+        let mut exchange = |msg: &Message, want: &dyn Fn(&Message) -> bool| {
+            transmit(
+                &mut LinkBus(&mut host),
+                msg,
+                Direction::HostToCar,
+                FrameMode::Fd,
+                &mut sec,
+            )
+            .unwrap();
+            loop {
+                let f = host
+                    .recv(Duration::from_secs(10))
+                    .unwrap()
+                    .expect("an answer");
+                if let Received::Message(m) = inbox.feed(&f, 0, &mut sec)
+                    && want(&m)
+                {
+                    break m;
+                }
+            }
+        };
+        let configure = Message::Configure(ConfigureMessage {
+            session: 1,
+            snapshot: fresh_learner().snapshot(),
+        });
+        exchange(&configure, &|m| matches!(m, Message::Weights(_)));
         for tick in 0..3 {
             let obs = Message::Observation(ObservationMessage {
                 tick,
                 observation: Observation::open_space(),
             });
-            transmit(
-                &mut LinkBus(&mut host),
-                &obs,
-                Direction::HostToCar,
-                FrameMode::Fd,
-            )
-            .unwrap();
-            let answer = loop {
-                let f = host
-                    .recv(Duration::from_secs(10))
-                    .unwrap()
-                    .expect("an answer");
-                if let Received::Message(m) = inbox.feed(&f, 0) {
-                    break m;
-                }
-            };
+            let answer = exchange(&obs, &|m| matches!(m, Message::Action(_)));
             assert!(matches!(answer, Message::Action(a) if a.tick == tick));
         }
         stop.store(true, Ordering::Relaxed);
@@ -275,22 +508,53 @@ mod tests {
     fn start_states_say_where_the_learner_came_from() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("car.flash");
-        let (_, s) = Server::with_flash(CarConfig::default(), &path).unwrap();
+        let open = |p: &Path| Server::with_flash(CarConfig::default(), p, Open::Existing, &KEY, 1);
+        let (_, s) = open(&path).unwrap();
         assert!(matches!(s, StartState::Fresh { .. }));
-        let mut store = FlashStore::open(&path).unwrap().0;
+        let mut store = FlashStore::open(&path, Open::Existing).unwrap().0;
         let state = CarNode::new(CarConfig::default(), fresh_learner()).persisted();
         store.save(&state).unwrap();
         store.save(&state).unwrap();
         drop(store);
         let mut bytes = std::fs::read(&path).unwrap();
-        bytes[crate::flash::PAGE_SIZE + 20] ^= 0xFF;
+        bytes[crate::flash::HEADER_SIZE + crate::flash::PAGE_SIZE + 20] ^= 0xFF;
         std::fs::write(&path, &bytes).unwrap();
-        let (server, s) = Server::with_flash(CarConfig::default(), &path).unwrap();
+        let (server, s) = open(&path).unwrap();
         assert_eq!(
             s.to_string(),
-            "restored generation 1 from page 0 (page 0 good (generation 1), page 1 corrupt); \
+            "restored write 1 from page 0 (page 0 good (write 1), page 1 corrupt); \
              fell back from corrupt page 1"
         );
         assert_eq!(server.node().persisted(), state);
+        // Not an image: refused.
+        std::fs::write(&path, b"important notes").unwrap();
+        assert!(open(&path).is_err());
+        assert_eq!(std::fs::read(&path).unwrap(), b"important notes");
+    }
+
+    #[test]
+    fn reports_are_rate_limited() {
+        let t0 = Instant::now();
+        let mut r = Reports::new(t0);
+        let mut lines = 0;
+        for i in 0..20_000 {
+            let p = if i % 2 == 0 {
+                Problem::Malformed(format!("packet {i}"))
+            } else {
+                Problem::Refused(Refusal::Mac)
+            };
+            lines += r.note(&p).is_some() as u32;
+            lines += r.summary(t0 + Duration::from_millis(i)).is_some() as u32;
+        }
+        // Five in full, then one summary at 10 s.
+        assert_eq!(lines, FIRST_LINES + 1);
+        assert_eq!(r.counts().malformed, 10_000);
+        assert_eq!(r.counts().refused_mac, 10_000);
+        // The rest at the next summary; then nothing new, nothing written.
+        assert!(r.summary(t0 + Duration::from_secs(30)).is_some());
+        assert_eq!(r.summary(t0 + Duration::from_secs(60)), None, "nothing new");
+        r.note(&Problem::Lost);
+        let line = r.summary(t0 + Duration::from_secs(70)).unwrap();
+        assert!(line.contains("1 messages lost"), "{line}");
     }
 }

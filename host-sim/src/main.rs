@@ -203,6 +203,13 @@ struct RunArgs {
     /// default suits loopback and CAN; a slow serial line needs more.
     #[arg(long, requires = "link", default_value_t = 20)]
     try_timeout_ms: u64,
+    /// With --link: the car's key file (`hil_mock keygen FILE`); without it (or --insecure)
+    /// a run over a link refuses to start.
+    #[arg(long, requires = "link", conflicts_with = "insecure")]
+    key: Option<PathBuf>,
+    /// With --link: use the public all-zero key (anyone on the bus can drive and teach the car).
+    #[arg(long, requires = "link")]
+    insecure: bool,
 }
 
 /// The learner's link for `run`: in process, or a `RemoteCar` over `--link`.
@@ -213,6 +220,7 @@ fn car_link(args: &RunArgs, config: &RunConfig) -> Result<Box<dyn experiment::Ca
     let Some(link) = &args.link else {
         return Ok(Box::new(InProcessLink::new(config.learner)?));
     };
+    let key = hil_mock::key::choose(args.key.as_deref(), args.insecure, "host-sim")?;
     let address: LinkAddress = link.parse()?;
     let faults = args
         .faults
@@ -245,7 +253,7 @@ fn car_link(args: &RunArgs, config: &RunConfig) -> Result<Box<dyn experiment::Ca
         host_sim::teach::remote::RemoteConfig {
             mode: args.frame_mode.0,
             try_timeout: std::time::Duration::from_millis(args.try_timeout_ms.max(1)),
-            ..Default::default()
+            ..host_sim::teach::remote::RemoteConfig::new(key)
         },
     );
     Ok(Box::new(remote))

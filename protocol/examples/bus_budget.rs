@@ -24,7 +24,7 @@ fn percent(ns: u64) -> f64 {
 
 fn main() {
     println!(
-        "Every message at its largest (sealed: version + postcard + CRC-16), worst-case bit stuffing.\n"
+        "Every message at its largest (secured: version + postcard + freshness byte + 4-byte AES-CMAC), worst-case bit stuffing.\n"
     );
     println!(
         "| message | bytes | frames classic | frames FD | bits classic | bits FD (nominal + data) | µs classic 1M | µs FD 1/5M |"

@@ -1,6 +1,11 @@
-//! Writes the seed corpus of the fuzz targets from real encoded messages:
-//! `fuzz/corpus/frame_decode/*.bin` (sealed messages) and `fuzz/corpus/reassembler_feed/*.bin`
-//! (their CAN frames, in the record format `fuzz/fuzz_targets/reassembler_feed.rs` reads).
+//! Writes the seed corpus of the protocol's fuzz targets from real encoded messages:
+//! `fuzz/corpus/frame_decode/*.bin` (plain envelopes, secured PDUs and bare payloads),
+//! `fuzz/corpus/reassembler_feed/*.bin` (the secured messages' CAN frames, in the record format
+//! `fuzz/fuzz_targets/reassembler_feed.rs` reads), `fuzz/corpus/car_node/*.bin` (sessions of
+//! the car node: configure, observe, feedback, polls, a restart) and
+//! `fuzz/corpus/slcan_line/*.bin` (slcan lines). The fuzz targets know the key `0x42…` and the
+//! car's epoch 3, so these seeds pass authentication there. `hil_mock`'s targets get theirs from
+//! `cargo run -p hil_mock --example transport_fuzz_seeds`.
 //!
 //! ```text
 //! cargo run -p protocol --example fuzz_seeds [-- OUT_DIR]     # default: fuzz/corpus
@@ -17,9 +22,11 @@ use firmware_core::{
 use protocol::can::{CanFrame, FD_LENGTHS};
 use protocol::isotp::{FrameMode, Segmenter};
 use protocol::message::{
-    ActionCommand, ConfigureMessage, DeliveryId, ErrorCode, ErrorReport, FeedbackMessage,
-    Heartbeat, MAX_MESSAGE_SIZE, Message, ObservationMessage,
+    ActionCommand, CarStatus, ConfigureMessage, DeliveryId, ErrorCode, ErrorReport,
+    FeedbackMessage, Hello, MAX_MESSAGE_SIZE, Message, ObservationMessage, StopReason,
+    WeightsReport, Welcome,
 };
+use protocol::secure::{CarSecurity, Endpoint, HostSecurity, Key};
 use protocol::stream::{Direction, Stream};
 
 fn a(i: usize) -> ActionIndex {
@@ -65,7 +72,10 @@ fn messages() -> Vec<(&'static str, Message)> {
                 ActionCommand::new(41, Some(a(12))).with_allowed(ActionMask::from_bits(0xF0F0)),
             ),
         ),
-        ("stop", Message::Action(ActionCommand::stop(42))),
+        (
+            "stop",
+            Message::Action(ActionCommand::stop(42, StopReason::Watchdog)),
+        ),
         (
             "feedback_action",
             feedback(41, Feedback::Action(ActionFeedback { action: a(5) })),
@@ -99,17 +109,45 @@ fn messages() -> Vec<(&'static str, Message)> {
                 code: protocol::message::NackCode::UnknownTick,
             }),
         ),
-        ("heartbeat", Message::Heartbeat(Heartbeat { counter: 513 })),
-        ("weights", Message::Weights(learner.snapshot())),
+        ("heartbeat", Message::Heartbeat),
+        (
+            "weights",
+            Message::Weights(WeightsReport {
+                status: CarStatus {
+                    session: Some(3),
+                    generation: 17,
+                },
+                snapshot: learner.snapshot(),
+            }),
+        ),
         (
             "configure",
             Message::Configure(ConfigureMessage {
-                session: 9,
+                session: 3,
                 snapshot: Learner::new(LearnerParams::paper().check().expect("paper is valid"))
                     .snapshot(),
             }),
         ),
         ("weights_request", Message::WeightsRequest),
+        (
+            "hello",
+            Message::Hello(Hello {
+                nonce: [1, 2, 3, 4, 5, 6, 7, 8],
+                epoch: 0,
+                counter: 0,
+            }),
+        ),
+        (
+            "welcome",
+            Message::Welcome(Welcome {
+                nonce: [1, 2, 3, 4, 5, 6, 7, 8],
+                epoch: 9,
+                counter: 4,
+                host_next: 0,
+                status: CarStatus::default(),
+                refused: 0,
+            }),
+        ),
         ("reset", Message::Reset),
         (
             "error",
@@ -140,16 +178,44 @@ fn record(out: &mut Vec<u8>, frame: &CanFrame, dt: u32) {
     out.extend_from_slice(frame.data());
 }
 
-fn frames(msg: &Message, mode: FrameMode) -> Vec<CanFrame> {
+/// The key and epoch the fuzz targets use.
+const KEY: Key = Key::new([0x42; 16]);
+const EPOCH: u32 = 3;
+
+/// The stream `msg` travels on, and its direction.
+fn stream_of(msg: &Message) -> Stream {
     let dir = if Stream::for_kind(msg.kind(), Direction::HostToCar).is_some() {
         Direction::HostToCar
     } else {
         Direction::CarToHost
     };
-    let stream = Stream::for_kind(msg.kind(), dir).expect("every kind travels some way");
+    Stream::for_kind(msg.kind(), dir).expect("every kind travels some way")
+}
+
+/// `msg` as a secured PDU, sealed by the host or the car (key 0x42…, epoch 3, counter 0).
+fn secured(msg: &Message) -> Vec<u8> {
+    let stream = stream_of(msg);
+    let mut buf = [0u8; MAX_MESSAGE_SIZE];
+    let bytes = match stream.direction {
+        Direction::HostToCar => {
+            HostSecurity::assume_fresh_car(&KEY, EPOCH).seal(msg, stream, &mut buf)
+        }
+        Direction::CarToHost => CarSecurity::new(&KEY, EPOCH).seal(msg, stream, &mut buf),
+    };
+    bytes.expect("fits").to_vec()
+}
+
+/// The postcard payload of `msg` (variant number and fields).
+fn payload(msg: &Message) -> Vec<u8> {
     let mut buf = [0u8; MAX_MESSAGE_SIZE];
     let bytes = msg.emit(&mut buf).expect("fits");
-    Segmenter::new(stream.id(), bytes, mode)
+    bytes[1..bytes.len() - 2].to_vec()
+}
+
+fn frames(msg: &Message, mode: FrameMode) -> Vec<CanFrame> {
+    let stream = stream_of(msg);
+    let bytes = secured(msg);
+    Segmenter::new(stream.id(), &bytes, mode)
         .expect("non-empty, short")
         .collect()
 }
@@ -158,10 +224,13 @@ fn main() -> std::io::Result<()> {
     let out = std::env::args()
         .nth(1)
         .map_or_else(|| PathBuf::from("fuzz/corpus"), PathBuf::from);
-    let decode_dir = out.join("frame_decode");
-    let feed_dir = out.join("reassembler_feed");
-    std::fs::create_dir_all(&decode_dir)?;
-    std::fs::create_dir_all(&feed_dir)?;
+    let dir = |name: &str| -> std::io::Result<PathBuf> {
+        let d = out.join(name);
+        std::fs::create_dir_all(&d)?;
+        Ok(d)
+    };
+    let (decode_dir, feed_dir) = (dir("frame_decode")?, dir("reassembler_feed")?);
+    let (node_dir, slcan_dir) = (dir("car_node")?, dir("slcan_line")?);
     let msgs = messages();
     let mut count = 0;
     for (name, msg) in &msgs {
@@ -170,7 +239,9 @@ fn main() -> std::io::Result<()> {
             decode_dir.join(format!("{name}.bin")),
             msg.emit(&mut buf).expect("fits"),
         )?;
-        count += 1;
+        std::fs::write(decode_dir.join(format!("{name}_secured.bin")), secured(msg))?;
+        std::fs::write(decode_dir.join(format!("{name}_payload.bin")), payload(msg))?;
+        count += 3;
     }
     // Frames of the host's messages (what the car's inbox reassembles), classic and FD.
     for (name, msg) in msgs
@@ -187,9 +258,16 @@ fn main() -> std::io::Result<()> {
         }
     }
     // An observation interleaved with a heartbeat and a feedback, one frame lost, a late frame.
-    let obs = frames(&msgs[0].1, FrameMode::Classic);
-    let hb = frames(&msgs[9].1, FrameMode::Classic);
-    let fb = frames(&msgs[4].1, FrameMode::Classic);
+    let named = |n: &str| {
+        &msgs
+            .iter()
+            .find(|(k, _)| *k == n)
+            .expect("a seed message")
+            .1
+    };
+    let obs = frames(named("observation_open"), FrameMode::Classic);
+    let hb = frames(named("heartbeat"), FrameMode::Classic);
+    let fb = frames(named("feedback_action"), FrameMode::Classic);
     let mut rec = Vec::new();
     for (i, f) in obs.iter().enumerate() {
         if i == 7 {
@@ -205,6 +283,67 @@ fn main() -> std::io::Result<()> {
     }
     std::fs::write(feed_dir.join("interleaved_faults.bin"), rec)?;
     count += 1;
+    // Sessions of the car node: records `[op][...]` (fuzz/fuzz_targets/car_node.rs).
+    let session = |mode_bit: u8, names: &[&str]| {
+        let mut rec = Vec::new();
+        for n in names {
+            match *n {
+                "poll" => rec.push(2 | (30 << 2)),
+                "restart" => rec.push(3),
+                "garbage" => {
+                    rec.push(0);
+                    rec.extend_from_slice(&[0x02, 3, 1, 2, 3]);
+                }
+                _ => {
+                    let p = payload(named(n));
+                    rec.push(1 | mode_bit);
+                    rec.push(p.len() as u8);
+                    rec.extend_from_slice(&p);
+                }
+            }
+        }
+        rec
+    };
+    let taught = [
+        "hello",
+        "configure",
+        "observation_full",
+        "feedback_action",
+        "feedback_action",
+        "heartbeat",
+        "poll",
+        "weights_request",
+        "restart",
+        "feedback_action",
+        "observation_open",
+        "feedback_preference",
+        "garbage",
+        "reset",
+        "poll",
+        "poll",
+    ];
+    std::fs::write(node_dir.join("session_classic.bin"), session(0, &taught))?;
+    std::fs::write(node_dir.join("session_fd.bin"), session(4, &taught))?;
+    count += 2;
+    // slcan lines: the frames of a few messages, adapter commands, acknowledgements, garbage.
+    let mut lines = Vec::new();
+    for n in ["configure", "feedback_semantic", "heartbeat"] {
+        for mode in [FrameMode::Classic, FrameMode::Fd] {
+            for f in frames(named(n), mode) {
+                let mut line = [0u8; protocol::slcan::MAX_LINE];
+                lines.push(protocol::slcan::encode(&f, &mut line).to_vec());
+            }
+        }
+    }
+    lines.extend([
+        b"C\rS8\rO\rV\r".to_vec(),
+        b"z\r\r\x07".to_vec(),
+        b"t12\rT1ABCDEF0\r".to_vec(),
+    ]);
+    for (i, l) in lines.iter().enumerate() {
+        std::fs::write(slcan_dir.join(format!("line_{i:02}.bin")), l)?;
+        count += 1;
+    }
     println!("wrote {count} seeds under {}", out.display());
     Ok(())
 }

@@ -184,6 +184,16 @@ pub trait CanBus {
 
     /// The next received frame, if one is waiting.
     fn receive(&mut self) -> Result<Option<CanFrame>, Self::Error>;
+
+    /// The frame received last completed an authenticated message, called before the answer is
+    /// transmitted. A transport that has a notion of peers (UDP, a TCP connection) answers its
+    /// sender; if the message was also `fresh` (it carried the highest counter yet: not a hello,
+    /// which may be replayed by design, nor a late message, which another node may have
+    /// recorded and replayed) it may trust that sender from now on (answer it, keep its
+    /// connection). Does nothing by default (a bus has no peers).
+    fn authenticated(&mut self, fresh: bool) {
+        let _ = fresh;
+    }
 }
 
 #[cfg(test)]

@@ -1,4 +1,6 @@
-//! The checked envelope: `[version: u8][postcard payload][CRC-16 little-endian]`.
+//! The checked envelope: `[version: u8][postcard payload][CRC-16 little-endian]`: the storage
+//! form of the protocol's values (the car's flash pages, recorded ticks). On the wire messages
+//! travel authenticated instead ([`crate::secure`]), with a MAC in the place of the CRC.
 //!
 //! The CRC is CRC-16/IBM-3740 (polynomial 0x1021, initial value 0xFFFF, no reflection; also
 //! known as CRC-16/CCITT-FALSE), computed over the version byte and the payload. A receiver
@@ -24,7 +26,7 @@
 //! let mut buf = [0u8; 8];
 //! let sealed = protocol::seal(&300u16, &mut buf).unwrap();
 //! let env = Envelope::new_checked(sealed).unwrap();
-//! assert_eq!((env.version(), env.payload()), (2, &[0xAC, 0x02][..]));
+//! assert_eq!((env.version(), env.payload()), (3, &[0xAC, 0x02][..]));
 //! assert_eq!(Envelope::new_checked(&sealed[..2]).unwrap_err(), EnvelopeError::Truncated);
 //! ```
 
@@ -35,8 +37,11 @@ use serde::{Deserialize, Serialize};
 /// The protocol version this build speaks. A frame of another version is refused.
 ///
 /// History: 1, the first; 2, the action command carries the collision mask, the configure
-/// carries a session and a learner snapshot, the weights request is appended.
-pub const PROTOCOL_VERSION: u8 = 2;
+/// carries a session and a learner snapshot, the weights request is appended; 3, authenticated
+/// PDUs on the wire (AES-128-CMAC and freshness, [`crate::secure`]), the observation and the
+/// track quantized, stop reasons, the heartbeat without a counter, the car's status in the
+/// weights report, the hello/welcome handshake, new nack and error codes.
+pub const PROTOCOL_VERSION: u8 = 3;
 
 /// Bytes the envelope adds to a payload: the version byte and the CRC.
 pub const ENVELOPE_OVERHEAD: usize = 3;
@@ -195,9 +200,9 @@ mod tests {
         });
         let mut buf = [0u8; 16];
         let bytes = seal(&fb, &mut buf).unwrap();
-        // version 2, variant 0 (Action), action 17, then the CRC (computed independently).
-        assert_eq!(CRC16.checksum(&[2, 0, 17]).to_le_bytes(), [0xEC, 0xA0]);
-        assert_eq!(bytes, &[2, 0, 17, 0xEC, 0xA0]);
+        // version 3, variant 0 (Action), action 17, then the CRC (computed independently).
+        assert_eq!(CRC16.checksum(&[3, 0, 17]).to_le_bytes(), [0xDC, 0x97]);
+        assert_eq!(bytes, &[3, 0, 17, 0xDC, 0x97]);
         assert_eq!(
             CRC16.checksum(b"123456789"),
             0x29B1,

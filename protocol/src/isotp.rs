@@ -660,8 +660,8 @@ mod tests {
                 assert_eq!(frame_len(len, mode, f.len()), 0);
             }
         }
-        assert_eq!(frame_count(MAX_MESSAGE_SIZE, FrameMode::Classic), 56);
-        assert_eq!(frame_count(MAX_MESSAGE_SIZE, FrameMode::Fd), 7);
+        assert_eq!(frame_count(MAX_MESSAGE_SIZE, FrameMode::Classic), 23);
+        assert_eq!(frame_count(MAX_MESSAGE_SIZE, FrameMode::Fd), 3);
     }
 
     #[test]

@@ -4,26 +4,35 @@
 //! a compile-time constant checked against the largest message.
 //!
 //! ```text
-//!  Message ──emit──▶ envelope [version | postcard | CRC-16] ──Segmenter──▶ CAN frames (SF/FF/CF)
-//!                                                                            │ bus, id per stream
-//!  Message ◀─parse── envelope ◀────────── Reassembler (one per stream) ◀─────┘
+//!  Message ──seal──▶ secured PDU [version | postcard | freshness | MAC] ──Segmenter──▶ CAN frames
+//!                                                                                    │ bus, id per stream
+//!  Message ◀─open─── MAC, freshness, decode ◀────── Reassembler (one per stream) ◀───┘
 //! ```
 //!
 //! * [`message`]: the messages (observation, action command, feedback, ack/nack, heartbeat,
-//!   weights report, configuration, reset, error, weights request), their maximum sizes, total decoding.
-//! * [`envelope`]: the versioned, CRC-checked postcard envelope and its checked view.
+//!   weights report, configuration, reset, error, weights request, hello, welcome), their maximum
+//!   sizes, total decoding.
+//! * [`quantize`]: the observation's fixed-point wire form and [`quantize::quantize`], the one
+//!   function every observation passes through before a learner sees it.
+//! * [`secure`]: authenticated PDUs (AES-128-CMAC, freshness counters, replay window), the
+//!   car's and the host's [`secure::Endpoint`]s and their hello/welcome handshake.
+//! * [`envelope`]: the versioned, CRC-checked postcard envelope (the storage form) and its
+//!   checked view.
 //! * [`can`]: checked CAN / CAN FD frames and the [`can::CanBus`] trait transports implement.
 //! * [`slcan`]: the Lawicel serial-line CAN codec (the car's UART speaks it).
 //! * [`stream`]: the CAN identifier plan, one identifier per message class and direction.
 //! * [`isotp`]: ISO-TP-style segmentation and fixed-buffer reassembly for classic CAN and CAN FD.
 //! * [`link`]: the two glued together: [`link::transmit`] and the per-stream [`link::Inbox`].
-//! * [`delivery`]: acknowledged feedback: retransmission with bounded retries, dedupe window.
+//! * [`delivery`]: acknowledged feedback: retransmission with bounded retries, dedupe windows
+//!   per session.
 //! * [`budget`]: bits on the wire per frame, message and control tick; bus load.
-//! * [`car`]: the car's node ([`car::CarNode`]): the agent behind the link, exactly-once
-//!   feedback persisted before its ack, the watchdog; shared by `hil_mock` and the firmware.
+//! * [`car`]: the car's node ([`car::CarNode`]): the agent behind the authenticated link,
+//!   sessions that bind feedback, exactly-once feedback persisted before its ack, the watchdog
+//!   and the safe state; shared by `hil_mock` and the firmware.
 //!
 //! Decoding is total: any byte sequence gives a value or an error, never a panic (fuzzed in
-//! `fuzz/`). The wire format is specified in `docs/protocol.md`.
+//! `fuzz/`). Nothing a message asks for happens before its MAC and freshness are checked. The
+//! wire format and the threat model are in `docs/protocol.md`.
 //!
 //! One tick, end to end:
 //!
@@ -32,21 +41,24 @@
 //! use firmware_core::observation::Observation;
 //! use protocol::isotp::{FeedResult, FrameMode, Reassembler, Segmenter};
 //! use protocol::message::{Message, ObservationMessage, MAX_MESSAGE_SIZE};
+//! use protocol::secure::{CarSecurity, Endpoint, HostSecurity, Key};
 //! use protocol::stream::{Direction, Stream};
 //!
+//! let key = Key::new([7; 16]);
+//! let (mut host, mut car) = (HostSecurity::assume_fresh_car(&key, 1), CarSecurity::new(&key, 1));
 //! let msg = Message::Observation(ObservationMessage { tick: 7, observation: Observation::open_space() });
 //! let stream = Stream::for_kind(msg.kind(), Direction::HostToCar).unwrap();
 //! let mut buf = [0u8; MAX_MESSAGE_SIZE];
-//! let bytes = msg.emit(&mut buf).unwrap();
+//! let bytes = host.seal(&msg, stream, &mut buf).unwrap();
 //! let mut rx: Reassembler = Reassembler::new();
 //! let mut frames = 0;
 //! for frame in Segmenter::new(stream.id(), bytes, FrameMode::Classic).unwrap() {
 //!     frames += 1;
 //!     if let FeedResult::Complete(b) = rx.feed(&frame, 0) {
-//!         assert_eq!(Message::parse(b).unwrap(), msg);
+//!         assert_eq!(car.open(stream, b).unwrap(), msg);
 //!     }
 //! }
-//! assert_eq!(frames, 40); // 278 bytes: a first frame (6 bytes) and 39 consecutive frames (7 each)
+//! assert_eq!(frames, 14); // 97 bytes: a first frame (6 bytes) and 13 consecutive frames (7 each)
 //! ```
 
 #![cfg_attr(not(test), no_std)]
@@ -61,6 +73,8 @@ pub mod envelope;
 pub mod isotp;
 pub mod link;
 pub mod message;
+pub mod quantize;
+pub mod secure;
 pub mod slcan;
 pub mod stream;
 

@@ -1,38 +1,42 @@
 //! The messages between the host and the car, their wire encoding and their size bounds.
 //!
-//! A [`Message`] is the typed representation; on the wire it is an [`envelope`](crate::envelope)
-//! (version byte, postcard payload, CRC-16). [`Message::emit`] writes one, [`Message::parse`]
-//! reads one.
+//! A [`Message`] is the typed representation. On the wire it travels as a *secured* PDU
+//! ([`crate::secure`]: version byte, postcard payload, freshness byte, truncated AES-CMAC);
+//! in storage (flash pages, recorded ticks) as a plain [`envelope`](crate::envelope) (version
+//! byte, postcard payload, CRC-16), written by [`Message::emit`] and read by [`Message::parse`].
+//! The payload is the same in both.
 //!
 //! | # | variant | direction | payload |
 //! |---|---|---|---|
-//! | 0 | [`Message::Observation`] | host → car | [`ObservationMessage`]: tick number and [`Observation`] |
-//! | 1 | [`Message::Action`] | car → host | [`ActionCommand`]: tick number, the trajectory to track or `None` (stop), the collision mask |
+//! | 0 | [`Message::Observation`] | host → car | [`ObservationMessage`]: tick number and [`Observation`] (quantized, [`crate::quantize`]) |
+//! | 1 | [`Message::Action`] | car → host | [`ActionCommand`]: tick number, the trajectory to track or a stop and its reason, the collision mask |
 //! | 2 | [`Message::Feedback`] | host → car | [`FeedbackMessage`]: delivery id, tick number, [`Feedback`] |
 //! | 3 | [`Message::Ack`] | car → host | [`Ack`]: the delivery id of an applied feedback |
 //! | 4 | [`Message::Nack`] | car → host | [`Nack`]: the delivery id of a refused feedback and why |
-//! | 5 | [`Message::Heartbeat`] | both | [`Heartbeat`]: a wrapping counter |
-//! | 6 | [`Message::Weights`] | car → host | [`LearnerSnapshot`] |
+//! | 5 | [`Message::Heartbeat`] | both | nothing (the freshness counter of its PDU counts) |
+//! | 6 | [`Message::Weights`] | car → host | [`WeightsReport`]: the car's status and its [`LearnerSnapshot`] |
 //! | 7 | [`Message::Configure`] | host → car | [`ConfigureMessage`]: a session number and the [`LearnerSnapshot`] to start from |
 //! | 8 | [`Message::Reset`] | host → car | nothing |
 //! | 9 | [`Message::Error`] | both | [`ErrorReport`] |
 //! | 10 | [`Message::WeightsRequest`] | host → car | nothing; answered with [`Message::Weights`] |
+//! | 11 | [`Message::Hello`] | host → car | [`Hello`]: a nonce and the host's freshness; answered with [`Message::Welcome`] |
+//! | 12 | [`Message::Welcome`] | car → host | [`Welcome`]: the nonce, the car's freshness and [`CarStatus`] |
 //!
 //! The variant number is the first payload byte (a postcard varint); variants and fields are
 //! never reordered within a protocol version (the golden-bytes tests pin them). The largest
-//! sealed message of each kind is [`MessageKind::max_encoded_size`], a compile-time constant
+//! secured message of each kind is [`MessageKind::max_encoded_size`], a compile-time constant
 //! derived from postcard's `MaxSize`; [`MAX_MESSAGE_SIZE`] bounds them all and sizes every
 //! buffer.
 //!
 //! # Checked view, typed representation, panic contract
 //!
-//! [`Message::parse`] is total: any byte string gives a [`Message`] or a [`DecodeError`], never
-//! a panic. It checks the [`Envelope`] (length, CRC, version), decodes the payload with postcard
-//! (which range-checks action indices, enum tags and list lengths), requires every byte to be
-//! used, and checks the numbers the *protocol* defines (the [`Track`] of an action command:
-//! finite and within the car's limits). The values of `firmware-core` types (observation,
-//! feedback, snapshot) are checked by `firmware-core` when they are used
-//! ([`Observation::validate`], `Learner::restore`), so they are not checked twice.
+//! [`Message::parse`] and [`crate::secure`]'s `open` are total: any byte string gives a
+//! [`Message`] or an error, never a panic. They decode the payload with postcard (which
+//! range-checks action indices, enum tags and list lengths), require every byte to be used, and
+//! check the numbers the *protocol* defines (the [`Track`] of an action command: within the
+//! car's limits). The values of `firmware-core` types (observation, feedback, snapshot) are
+//! checked by `firmware-core` when they are used ([`Observation::validate`],
+//! `Learner::restore`), so they are not checked twice.
 //!
 //! ```
 //! use protocol::message::{ActionCommand, Message, MAX_MESSAGE_SIZE};
@@ -57,6 +61,8 @@ use serde::{Deserialize, Serialize};
 pub use firmware_core::observation::Observation;
 
 use crate::envelope::{ENVELOPE_OVERHEAD, Envelope, EnvelopeError, seal};
+use crate::quantize::{I16, U16, WireObservation, track};
+use crate::secure::SECURED_OVERHEAD;
 
 /// Largest steering angle an action command may carry (rad): the car's mechanical limit.
 pub const MAX_STEERING: f32 = 0.34;
@@ -79,47 +85,108 @@ const _: () = assert!(
 );
 
 /// The observation of one tick, host → car.
-#[derive(Clone, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+///
+/// On the wire the observation is quantized ([`crate::quantize`]): a decoded message holds the
+/// quantized numbers, so a message round-trips exactly when its observation is the output of
+/// [`crate::quantize::quantize`].
+#[derive(Clone, PartialEq, Debug, Serialize, Deserialize)]
 pub struct ObservationMessage {
     /// The tick number; the car's action command and any feedback name it.
     pub tick: u32,
     /// What the car observes.
+    #[serde(with = "crate::quantize::observation")]
     pub observation: Observation,
 }
 
+impl MaxSize for ObservationMessage {
+    const POSTCARD_MAX_SIZE: usize = u32::POSTCARD_MAX_SIZE + WireObservation::POSTCARD_MAX_SIZE;
+}
+
 /// One segment of the trajectory to track.
-#[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+#[derive(Clone, Copy, PartialEq, Debug)]
 pub struct SegmentCommand {
-    /// Steering angle (rad, positive left), within ±[`MAX_STEERING`].
+    /// Steering angle (rad, positive left), within ±[`MAX_STEERING`]; 10⁻⁴ rad steps on the
+    /// wire.
     pub steering: f32,
-    /// Arc length (m), in `[0, MAX_SEGMENT_LENGTH]`.
+    /// Arc length (m), in `[0, MAX_SEGMENT_LENGTH]`; millimetres on the wire.
     pub length: f32,
 }
 
 /// What the tracking controller needs to follow one trajectory of the lattice.
-#[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+///
+/// On the wire: the action (one byte), each segment's steering as an `i16` in 10⁻⁴ rad and its
+/// length as a `u16` in millimetres, the speed as a `u16` in mm/s (11 bytes). [`Track::of`]
+/// gives those rounded numbers, so a track round-trips exactly.
+#[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize)]
+#[serde(into = "WireTrack", from = "WireTrack")]
 pub struct Track {
     /// The action (trajectory) chosen.
     pub action: ActionIndex,
     /// Its two constant-curvature segments, in order.
     pub segments: [SegmentCommand; 2],
-    /// The speed to drive it at (m/s), in `(0, MAX_SPEED]`.
+    /// The speed to drive it at (m/s), in `(0, MAX_SPEED]`; mm/s on the wire.
     pub speed: f32,
 }
 
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize, MaxSize)]
+struct WireSegment {
+    steering: I16,
+    length: U16,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Serialize, Deserialize, MaxSize)]
+struct WireTrack {
+    action: ActionIndex,
+    segments: [WireSegment; 2],
+    speed: U16,
+}
+
+impl From<Track> for WireTrack {
+    fn from(t: Track) -> Self {
+        let seg = |s: &SegmentCommand| WireSegment {
+            steering: I16::new(track::signed(s.steering, track::STEERING_STEPS)),
+            length: U16::new(track::unsigned(s.length, track::MM)),
+        };
+        Self {
+            action: t.action,
+            segments: [seg(&t.segments[0]), seg(&t.segments[1])],
+            speed: U16::new(track::unsigned(t.speed, track::MM)),
+        }
+    }
+}
+
+impl From<WireTrack> for Track {
+    fn from(w: WireTrack) -> Self {
+        let seg = |s: &WireSegment| SegmentCommand {
+            steering: s.steering.get() as f32 / track::STEERING_STEPS,
+            length: s.length.get() as f32 / track::MM,
+        };
+        Self {
+            action: w.action,
+            segments: [seg(&w.segments[0]), seg(&w.segments[1])],
+            speed: w.speed.get() as f32 / track::MM,
+        }
+    }
+}
+
+impl MaxSize for Track {
+    const POSTCARD_MAX_SIZE: usize = WireTrack::POSTCARD_MAX_SIZE;
+}
+
 impl Track {
-    /// The lattice's trajectory of `action` (`firmware_core::lattice::trajectory`).
+    /// The lattice's trajectory of `action` (`firmware_core::lattice::trajectory`), its numbers
+    /// rounded to their wire steps.
     pub fn of(action: ActionIndex) -> Self {
         let t = lattice::trajectory(action);
         let seg = |i: usize| SegmentCommand {
             steering: t.segments[i].steering,
             length: t.segments[i].length,
         };
-        Self {
+        Track::from(WireTrack::from(Self {
             action,
             segments: [seg(0), seg(1)],
             speed: t.speed,
-        }
+        }))
     }
 
     /// Whether every number is finite and within the car's limits.
@@ -139,26 +206,64 @@ impl Track {
     }
 }
 
+/// Why the car stands.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+#[non_exhaustive]
+pub enum StopReason {
+    /// Every trajectory collides in this tick: the car's answer to the observation.
+    Blocked,
+    /// No observation came for the watchdog's time.
+    Watchdog,
+    /// The host reset the car.
+    Reset,
+    /// A new learner was configured.
+    Reconfigured,
+}
+
+impl fmt::Display for StopReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            StopReason::Blocked => "every trajectory collides",
+            StopReason::Watchdog => "watchdog: no observation in time",
+            StopReason::Reset => "reset by the host",
+            StopReason::Reconfigured => "a new learner was configured",
+        })
+    }
+}
+
+/// Drive or stand.
+#[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+pub enum Command {
+    /// Track this trajectory.
+    Track(Track),
+    /// Stand, for this reason.
+    Stop(StopReason),
+}
+
 /// The car's decision for a tick, car → host.
 #[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
 pub struct ActionCommand {
-    /// The tick of the observation this answers.
+    /// The tick of the observation this answers (for a stop that answers none, the last tick
+    /// the car acted in, 0 before any).
     pub tick: u32,
-    /// The trajectory to track; `None`: every trajectory collides (or the car's watchdog
-    /// stopped it), stop.
-    pub track: Option<Track>,
+    /// The trajectory to track, or a stop and why.
+    pub command: Command,
     /// The trajectories the car found collision-free in this tick (the evaluator's mask), so the
-    /// host can check that both sides see the same world. Empty in a watchdog stop.
+    /// host can check that both sides see the same world. Empty in a stop that answers no
+    /// observation.
     pub allowed: ActionMask,
 }
 
 impl ActionCommand {
-    /// The command for `action` in `tick`: its lattice trajectory, or a stop for `None`, with
-    /// an empty mask (see [`ActionCommand::with_allowed`]).
+    /// The command for `action` in `tick`: its lattice trajectory, or for `None` a stop because
+    /// every trajectory collides, with an empty mask (see [`ActionCommand::with_allowed`]).
     pub fn new(tick: u32, action: Option<ActionIndex>) -> Self {
         Self {
             tick,
-            track: action.map(Track::of),
+            command: match action {
+                Some(a) => Command::Track(Track::of(a)),
+                None => Command::Stop(StopReason::Blocked),
+            },
             allowed: ActionMask::NONE,
         }
     }
@@ -169,18 +274,40 @@ impl ActionCommand {
         self
     }
 
-    /// A stop in `tick`, with an empty mask.
-    pub const fn stop(tick: u32) -> Self {
+    /// A stop in `tick` for `reason`, with an empty mask.
+    pub const fn stop(tick: u32, reason: StopReason) -> Self {
         Self {
             tick,
-            track: None,
+            command: Command::Stop(reason),
             allowed: ActionMask::NONE,
+        }
+    }
+
+    /// The track, if the car drives.
+    pub const fn track(&self) -> Option<&Track> {
+        match &self.command {
+            Command::Track(t) => Some(t),
+            Command::Stop(_) => None,
         }
     }
 
     /// The action of the track, if any.
     pub fn action(&self) -> Option<ActionIndex> {
-        self.track.map(|t| t.action)
+        self.track().map(|t| t.action)
+    }
+
+    /// Why the car stands, if it does.
+    pub const fn stop_reason(&self) -> Option<StopReason> {
+        match self.command {
+            Command::Track(_) => None,
+            Command::Stop(r) => Some(r),
+        }
+    }
+
+    /// Whether this is the car's answer to the observation of its tick (a track, or a stop
+    /// because every trajectory collides) rather than a stop for another reason.
+    pub const fn answers_observation(&self) -> bool {
+        !matches!(self.command, Command::Stop(r) if !matches!(r, StopReason::Blocked))
     }
 }
 
@@ -190,13 +317,42 @@ impl From<&firmware_core::agent::Decision> for ActionCommand {
     }
 }
 
+/// What the car holds: its configuration session and how far its learner went in it.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default, Serialize, Deserialize, MaxSize)]
+pub struct CarStatus {
+    /// The host's configuration session the learner belongs to; `None`: the car holds no
+    /// configured learner (never configured, or its state was lost).
+    pub session: Option<u8>,
+    /// The snapshot generation: 0 after the configuration, one more per applied feedback.
+    pub generation: u32,
+}
+
+impl fmt::Display for CarStatus {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.session {
+            Some(s) => write!(f, "session {s}, generation {}", self.generation),
+            None => f.write_str("no configured learner"),
+        }
+    }
+}
+
+/// A learner report, car → host: the car's status and its learner.
+#[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+pub struct WeightsReport {
+    /// The session and generation the snapshot belongs to.
+    pub status: CarStatus,
+    /// The learner.
+    pub snapshot: LearnerSnapshot,
+}
+
 /// A learner configuration, host → car: the car replaces its learner by the one `snapshot`
 /// describes and remembers `session`. A fresh learner is `Learner::new(params).snapshot()`.
 ///
 /// A configure whose `session` equals the car's current one is a copy (a retransmission, a
 /// delayed frame): the car answers with its current weights and changes nothing, so a duplicated
-/// configure never resets a running learner. A host picks a new session for each new
-/// configuration.
+/// configure never resets a running learner. A new configuration takes the session after the
+/// car's current one (`current + 1`, wrapping; any session if the car holds none), so no
+/// session number comes back while frames of its previous use may still be on their way.
 #[derive(Clone, Copy, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
 pub struct ConfigureMessage {
     /// The host's configuration session.
@@ -207,11 +363,11 @@ pub struct ConfigureMessage {
 
 /// Identifies one feedback delivery: the sender's session and its sequence number in it.
 ///
-/// A sender picks a new `session` whenever it starts (a boot counter, or a random byte), and
-/// numbers its feedback `seq = 0, 1, 2, …` wrapping at 256. See [`crate::delivery`].
+/// A sender numbers its feedback `seq = 0, 1, 2, …` wrapping at 256 within the configuration
+/// session. See [`crate::delivery`].
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
 pub struct DeliveryId {
-    /// The sender's session.
+    /// The configuration session.
     pub session: u8,
     /// The sequence number within the session (wrapping).
     pub seq: u8,
@@ -246,6 +402,9 @@ pub enum NackCode {
     /// The sequence number is older than the receiver's dedupe window: it cannot tell whether
     /// it was applied, so it is not applied again.
     Stale,
+    /// The feedback belongs to another session than the car's configured one (or the car holds
+    /// none).
+    WrongSession,
 }
 
 impl fmt::Display for NackCode {
@@ -254,6 +413,7 @@ impl fmt::Display for NackCode {
             NackCode::UnknownTick => "unknown tick",
             NackCode::Rejected => "feedback rejected by the learner",
             NackCode::Stale => "sequence number older than the dedupe window",
+            NackCode::WrongSession => "feedback of another session than the car's",
         })
     }
 }
@@ -276,19 +436,11 @@ pub struct Nack {
     pub code: NackCode,
 }
 
-/// "I am alive": each side sends one per tick with a counter that increases by one (wrapping),
-/// so a receiver's watchdog can tell a live peer from a stuck one repeating itself.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
-pub struct Heartbeat {
-    /// Wrapping counter.
-    pub counter: u16,
-}
-
 /// What went wrong, in an [`ErrorReport`].
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
 #[non_exhaustive]
 pub enum ErrorCode {
-    /// A message did not decode (CRC, encoding, trailing bytes, invalid track).
+    /// A message did not decode (encoding, trailing bytes, invalid track).
     Decode,
     /// A message came with another protocol version.
     Version,
@@ -302,6 +454,10 @@ pub enum ErrorCode {
     Params,
     /// The receiver could not do what the message asked for another reason.
     Internal,
+    /// The car holds no configured learner: it does not act until configured.
+    NotConfigured,
+    /// A configure with a session that is neither the car's current one nor the next.
+    Session,
 }
 
 impl fmt::Display for ErrorCode {
@@ -314,6 +470,8 @@ impl fmt::Display for ErrorCode {
             ErrorCode::Observation => "observation refused",
             ErrorCode::Params => "learner configuration refused",
             ErrorCode::Internal => "internal error",
+            ErrorCode::NotConfigured => "no configured learner",
+            ErrorCode::Session => "configure session is neither the current nor the next",
         })
     }
 }
@@ -327,15 +485,47 @@ pub struct ErrorReport {
     pub tick: Option<u32>,
 }
 
+/// Bytes of a handshake nonce.
+pub const NONCE_LEN: usize = 8;
+
+/// Host → car: "tell me your freshness and your status". Answered with a [`Welcome`] carrying
+/// the same nonce. See [`crate::secure`] for how it resynchronises the freshness counters.
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+pub struct Hello {
+    /// A number the host never used before (random): the welcome must repeat it.
+    pub nonce: [u8; NONCE_LEN],
+    /// The car's epoch as the host believes it (0: none yet).
+    pub epoch: u32,
+    /// The host's next freshness counter in that epoch.
+    pub counter: u32,
+}
+
+/// Car → host, the answer to a [`Hello`].
+#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize, MaxSize)]
+pub struct Welcome {
+    /// The hello's nonce.
+    pub nonce: [u8; NONCE_LEN],
+    /// The car's epoch (new at every start of the car).
+    pub epoch: u32,
+    /// The freshness counter of this very message.
+    pub counter: u32,
+    /// The next host → car counter the car accepts.
+    pub host_next: u32,
+    /// What the car holds.
+    pub status: CarStatus,
+    /// Messages the car refused since it started (authentication or freshness failed).
+    pub refused: u32,
+}
+
 /// Every message of the protocol. See the module documentation for the table.
 ///
-/// The observation makes it about 400 bytes; without a heap there is no boxing it, and a
+/// The observation makes it about 200 bytes; without a heap there is no boxing it, and a
 /// message lives in one place (a static or the stack of the loop that handles it).
 #[expect(
     clippy::large_enum_variant,
     reason = "no heap: the observation is stored inline"
 )]
-#[derive(Clone, PartialEq, Debug, Serialize, Deserialize, MaxSize)]
+#[derive(Clone, PartialEq, Debug, Serialize, Deserialize)]
 pub enum Message {
     /// An observation, host → car.
     Observation(ObservationMessage),
@@ -348,18 +538,38 @@ pub enum Message {
     /// Feedback refused, car → host.
     Nack(Nack),
     /// Alive, both ways.
-    Heartbeat(Heartbeat),
-    /// The learner's parameters and state, car → host.
-    Weights(LearnerSnapshot),
+    Heartbeat,
+    /// The car's status and learner, car → host.
+    Weights(WeightsReport),
     /// A learner to start from, host → car (the car answers with a weights report or an error).
     Configure(ConfigureMessage),
-    /// Host → car: stop, forget the recent ticks and the feedback dedupe window, keep the
-    /// learner. The host sends it when it (re)starts.
+    /// Host → car: stop, forget the recent ticks; keep the learner and the dedupe windows.
     Reset,
     /// Something went wrong, both ways.
     Error(ErrorReport),
     /// Host → car: report the learner (the car answers with [`Message::Weights`]).
     WeightsRequest,
+    /// Host → car: the freshness handshake (answered with [`Message::Welcome`]).
+    Hello(Hello),
+    /// Car → host: the answer to a hello.
+    Welcome(Welcome),
+}
+
+impl MaxSize for Message {
+    const POSTCARD_MAX_SIZE: usize = TAG + max_payload();
+}
+
+const fn max_payload() -> usize {
+    let mut max = 0;
+    let mut i = 0;
+    while i < MessageKind::ALL.len() {
+        let n = MessageKind::ALL[i].max_payload_size();
+        if n > max {
+            max = n;
+        }
+        i += 1;
+    }
+    max
 }
 
 /// The kind of a [`Message`], without its payload: the variant, in the same order.
@@ -388,18 +598,18 @@ pub enum MessageKind {
     Error = 9,
     /// [`Message::WeightsRequest`].
     WeightsRequest = 10,
+    /// [`Message::Hello`].
+    Hello = 11,
+    /// [`Message::Welcome`].
+    Welcome = 12,
 }
 
 /// Bytes of a variant number (postcard varint of values below 128).
 const TAG: usize = 1;
 
-const fn sealed(payload_max: usize) -> usize {
-    ENVELOPE_OVERHEAD + TAG + payload_max
-}
-
 impl MessageKind {
     /// Every kind, in variant order.
-    pub const ALL: [MessageKind; 11] = [
+    pub const ALL: [MessageKind; 13] = [
         MessageKind::Observation,
         MessageKind::Action,
         MessageKind::Feedback,
@@ -411,23 +621,47 @@ impl MessageKind {
         MessageKind::Reset,
         MessageKind::Error,
         MessageKind::WeightsRequest,
+        MessageKind::Hello,
+        MessageKind::Welcome,
     ];
 
-    /// The largest sealed message of this kind (envelope included), in bytes.
-    pub const fn max_encoded_size(self) -> usize {
-        match self {
-            MessageKind::Observation => sealed(ObservationMessage::POSTCARD_MAX_SIZE),
-            MessageKind::Action => sealed(ActionCommand::POSTCARD_MAX_SIZE),
-            MessageKind::Feedback => sealed(FeedbackMessage::POSTCARD_MAX_SIZE),
-            MessageKind::Ack => sealed(Ack::POSTCARD_MAX_SIZE),
-            MessageKind::Nack => sealed(Nack::POSTCARD_MAX_SIZE),
-            MessageKind::Heartbeat => sealed(Heartbeat::POSTCARD_MAX_SIZE),
-            MessageKind::Weights => sealed(LearnerSnapshot::POSTCARD_MAX_SIZE),
-            MessageKind::Configure => sealed(ConfigureMessage::POSTCARD_MAX_SIZE),
-            MessageKind::Reset => sealed(0),
-            MessageKind::Error => sealed(ErrorReport::POSTCARD_MAX_SIZE),
-            MessageKind::WeightsRequest => sealed(0),
+    /// The kind whose variant number is `tag`.
+    pub const fn from_tag(tag: u8) -> Option<Self> {
+        if (tag as usize) < Self::ALL.len() {
+            Some(Self::ALL[tag as usize])
+        } else {
+            None
         }
+    }
+
+    /// The largest payload after the variant number (bytes).
+    const fn max_payload_size(self) -> usize {
+        match self {
+            MessageKind::Observation => ObservationMessage::POSTCARD_MAX_SIZE,
+            MessageKind::Action => ActionCommand::POSTCARD_MAX_SIZE,
+            MessageKind::Feedback => FeedbackMessage::POSTCARD_MAX_SIZE,
+            MessageKind::Ack => Ack::POSTCARD_MAX_SIZE,
+            MessageKind::Nack => Nack::POSTCARD_MAX_SIZE,
+            MessageKind::Heartbeat => 0,
+            MessageKind::Weights => WeightsReport::POSTCARD_MAX_SIZE,
+            MessageKind::Configure => ConfigureMessage::POSTCARD_MAX_SIZE,
+            MessageKind::Reset => 0,
+            MessageKind::Error => ErrorReport::POSTCARD_MAX_SIZE,
+            MessageKind::WeightsRequest => 0,
+            MessageKind::Hello => Hello::POSTCARD_MAX_SIZE,
+            MessageKind::Welcome => Welcome::POSTCARD_MAX_SIZE,
+        }
+    }
+
+    /// The largest secured message of this kind on the wire (version, payload, freshness byte
+    /// and MAC), in bytes.
+    pub const fn max_encoded_size(self) -> usize {
+        SECURED_OVERHEAD + TAG + self.max_payload_size()
+    }
+
+    /// The largest plain envelope of this kind ([`Message::emit`]: version, payload, CRC).
+    pub const fn max_stored_size(self) -> usize {
+        ENVELOPE_OVERHEAD + TAG + self.max_payload_size()
     }
 
     /// A short name ("observation", "action", …).
@@ -444,6 +678,8 @@ impl MessageKind {
             MessageKind::Reset => "reset",
             MessageKind::Error => "error",
             MessageKind::WeightsRequest => "weights request",
+            MessageKind::Hello => "hello",
+            MessageKind::Welcome => "welcome",
         }
     }
 }
@@ -454,29 +690,20 @@ impl fmt::Display for MessageKind {
     }
 }
 
-/// The largest sealed message of any kind: the size of every message buffer.
-pub const MAX_MESSAGE_SIZE: usize = ENVELOPE_OVERHEAD + Message::POSTCARD_MAX_SIZE;
-
-const fn largest_kind() -> usize {
-    let mut max = 0;
-    let mut i = 0;
-    while i < MessageKind::ALL.len() {
-        let n = MessageKind::ALL[i].max_encoded_size();
-        if n > max {
-            max = n;
-        }
-        i += 1;
-    }
-    max
-}
+/// The largest secured message of any kind: the size of every message buffer.
+pub const MAX_MESSAGE_SIZE: usize = SECURED_OVERHEAD + Message::POSTCARD_MAX_SIZE;
 
 const _: () = assert!(
     MessageKind::ALL.len() < 128,
     "variant numbers are one-byte varints"
 );
 const _: () = assert!(
-    largest_kind() == MAX_MESSAGE_SIZE,
-    "the per-kind bounds and the message bound agree"
+    MessageKind::Observation.max_encoded_size() == MAX_MESSAGE_SIZE,
+    "the observation is the largest message"
+);
+const _: () = assert!(
+    ENVELOPE_OVERHEAD <= SECURED_OVERHEAD,
+    "a stored message fits a wire buffer"
 );
 
 /// Why bytes did not decode as a [`Message`].
@@ -525,31 +752,41 @@ impl Message {
             Message::Feedback(_) => MessageKind::Feedback,
             Message::Ack(_) => MessageKind::Ack,
             Message::Nack(_) => MessageKind::Nack,
-            Message::Heartbeat(_) => MessageKind::Heartbeat,
+            Message::Heartbeat => MessageKind::Heartbeat,
             Message::Weights(_) => MessageKind::Weights,
             Message::Configure(_) => MessageKind::Configure,
             Message::Reset => MessageKind::Reset,
             Message::Error(_) => MessageKind::Error,
             Message::WeightsRequest => MessageKind::WeightsRequest,
+            Message::Hello(_) => MessageKind::Hello,
+            Message::Welcome(_) => MessageKind::Welcome,
         }
     }
 
-    /// Writes the sealed message into `buf` and returns the bytes written. A buffer of
-    /// [`MAX_MESSAGE_SIZE`] bytes always suffices.
+    /// Writes the message as a plain envelope (version, postcard, CRC-16) into `buf` and returns
+    /// the bytes written: the storage form (recorded ticks, tests), not the wire's, which is
+    /// authenticated ([`crate::secure`]). A buffer of [`MAX_MESSAGE_SIZE`] bytes always suffices.
     pub fn emit<'b>(&self, buf: &'b mut [u8]) -> Result<&'b [u8], EnvelopeError> {
         seal(self, buf)
     }
 
-    /// Reads a sealed message. Total: any bytes give a message or an error.
+    /// Reads a plain envelope written by [`Message::emit`]. Total: any bytes give a message or
+    /// an error.
     pub fn parse(bytes: &[u8]) -> Result<Message, DecodeError> {
-        let payload = Envelope::new_checked(bytes)?.into_payload();
+        Self::decode_payload(Envelope::new_checked(bytes)?.into_payload())
+    }
+
+    /// Decodes a postcard payload (the variant number and its fields), requiring every byte to
+    /// be used, and checks the numbers the protocol defines. Total.
+    pub fn decode_payload(payload: &[u8]) -> Result<Message, DecodeError> {
         let (msg, rest) = postcard::take_from_bytes::<Message>(payload)
             .map_err(|_| DecodeError::Envelope(EnvelopeError::Decode))?;
         if !rest.is_empty() {
             return Err(DecodeError::Envelope(EnvelopeError::TrailingBytes));
         }
         if let Message::Action(ActionCommand {
-            track: Some(track), ..
+            command: Command::Track(track),
+            ..
         }) = &msg
         {
             track.check()?;
@@ -623,7 +860,8 @@ pub(crate) mod strategies {
                 }
                 obs.reference = PathReference { x, y, heading };
                 obs.speed = speed;
-                obs
+                // What goes on the wire: the decoded message equals it.
+                crate::quantize::quantize(&obs)
             })
     }
 
@@ -668,8 +906,27 @@ pub(crate) mod strategies {
         prop_oneof![
             Just(NackCode::UnknownTick),
             Just(NackCode::Rejected),
-            Just(NackCode::Stale)
+            Just(NackCode::Stale),
+            Just(NackCode::WrongSession),
         ]
+    }
+
+    fn stop_reason() -> impl Strategy<Value = StopReason> {
+        prop_oneof![
+            Just(StopReason::Blocked),
+            Just(StopReason::Watchdog),
+            Just(StopReason::Reset),
+            Just(StopReason::Reconfigured),
+        ]
+    }
+
+    pub(crate) fn status() -> impl Strategy<Value = CarStatus> {
+        (proptest::option::of(any::<u8>()), any::<u32>()).prop_map(|(session, generation)| {
+            CarStatus {
+                session,
+                generation,
+            }
+        })
     }
 
     /// Any message `Message::parse` accepts.
@@ -683,33 +940,56 @@ pub(crate) mod strategies {
                     ActionCommand::new(tick, a).with_allowed(ActionMask::from_bits(bits))
                 )
             ),
+            (any::<u32>(), stop_reason())
+                .prop_map(|(tick, r)| Message::Action(ActionCommand::stop(tick, r))),
             (id(), any::<u32>(), feedback()).prop_map(|(id, tick, feedback)| {
                 Message::Feedback(FeedbackMessage { id, tick, feedback })
             }),
             id().prop_map(|id| Message::Ack(Ack { id })),
             (id(), nack_code()).prop_map(|(id, code)| Message::Nack(Nack { id, code })),
-            any::<u16>().prop_map(|counter| Message::Heartbeat(Heartbeat { counter })),
-            snapshot().prop_map(Message::Weights),
+            Just(Message::Heartbeat),
+            (status(), snapshot()).prop_map(|(status, snapshot)| Message::Weights(WeightsReport {
+                status,
+                snapshot
+            })),
             (any::<u8>(), snapshot()).prop_map(|(session, snapshot)| Message::Configure(
                 ConfigureMessage { session, snapshot }
             )),
             Just(Message::Reset),
-            (0usize..7, proptest::option::of(any::<u32>())).prop_map(|(c, tick)| {
-                let codes = [
-                    ErrorCode::Decode,
-                    ErrorCode::Version,
-                    ErrorCode::Reassembly,
-                    ErrorCode::WrongStream,
-                    ErrorCode::Observation,
-                    ErrorCode::Params,
-                    ErrorCode::Internal,
-                ];
-                Message::Error(ErrorReport {
-                    code: codes[c],
-                    tick,
-                })
-            }),
+            (
+                0usize..ERROR_CODES.len(),
+                proptest::option::of(any::<u32>())
+            )
+                .prop_map(|(c, tick)| {
+                    Message::Error(ErrorReport {
+                        code: ERROR_CODES[c],
+                        tick,
+                    })
+                }),
             Just(Message::WeightsRequest),
+            (any::<[u8; NONCE_LEN]>(), any::<u32>(), any::<u32>()).prop_map(
+                |(nonce, epoch, counter)| Message::Hello(Hello {
+                    nonce,
+                    epoch,
+                    counter
+                })
+            ),
+            (
+                any::<[u8; NONCE_LEN]>(),
+                (any::<u32>(), any::<u32>(), any::<u32>()),
+                status(),
+                any::<u32>()
+            )
+                .prop_map(|(nonce, (epoch, counter, host_next), status, refused)| {
+                    Message::Welcome(Welcome {
+                        nonce,
+                        epoch,
+                        counter,
+                        host_next,
+                        status,
+                        refused,
+                    })
+                }),
         ]
     }
 
@@ -734,13 +1014,26 @@ pub(crate) mod strategies {
 
     /// Polarity is re-exported here so the tests below can name it.
     pub(crate) type Pol = Polarity;
+
+    /// Every error code, in variant order.
+    pub(crate) const ERROR_CODES: [ErrorCode; 9] = [
+        ErrorCode::Decode,
+        ErrorCode::Version,
+        ErrorCode::Reassembly,
+        ErrorCode::WrongStream,
+        ErrorCode::Observation,
+        ErrorCode::Params,
+        ErrorCode::Internal,
+        ErrorCode::NotConfigured,
+        ErrorCode::Session,
+    ];
 }
 
 #[cfg(test)]
 mod tests {
-    use super::strategies::{Pol, message};
+    use super::strategies::{ERROR_CODES, Pol, message};
     use super::*;
-    use crate::envelope::CRC16;
+    use crate::envelope::{CRC16, PROTOCOL_VERSION};
     use firmware_core::feature::Feature;
     use firmware_core::observation::{PathReference, SemanticClass, SemanticObject};
     use firmware_core::{
@@ -758,8 +1051,8 @@ mod tests {
         seq: 200,
     };
 
-    /// Seals `value`, checks that the payload is exactly `payload` and the envelope is
-    /// `[1, payload.., crc_lo, crc_hi]`, and that it parses back to `value`.
+    /// Emits `value` as a plain envelope, checks that the payload is exactly `payload` and the
+    /// envelope is `[3, payload.., crc_lo, crc_hi]`, and that it parses back to `value`.
     #[track_caller]
     fn test_one(value: Message, payload: &[u8]) {
         let mut buf = [0u8; MAX_MESSAGE_SIZE];
@@ -774,20 +1067,37 @@ mod tests {
             value.kind() as u8,
             "variant number of {value:?}"
         );
-        assert!(bytes.len() <= value.kind().max_encoded_size());
+        assert!(bytes.len() <= value.kind().max_stored_size());
+        assert!(payload.len() + SECURED_OVERHEAD <= value.kind().max_encoded_size());
         assert_eq!(Message::parse(bytes), Ok(value));
     }
 
-    const PROTOCOL_VERSION_BYTE: u8 = 2;
+    const PROTOCOL_VERSION_BYTE: u8 = 3;
 
-    fn f(x: f32) -> [u8; 4] {
-        x.to_le_bytes()
+    #[test]
+    fn the_version_byte_is_the_protocol_version() {
+        assert_eq!(PROTOCOL_VERSION, PROTOCOL_VERSION_BYTE);
+    }
+
+    /// The 80 bytes of 64 ten-bit codes, written bit by bit (independently of the codec).
+    fn packed(codes: &[u16; 64]) -> std::vec::Vec<u8> {
+        let mut out = std::vec![0u8; 80];
+        for (j, &c) in codes.iter().enumerate() {
+            for b in 0..10 {
+                if c >> b & 1 == 1 {
+                    let bit = 10 * j + b;
+                    out[bit / 8] |= 1 << (bit % 8);
+                }
+            }
+        }
+        out
     }
 
     #[test]
     fn golden_observation() {
         let mut obs = Observation::open_space();
         obs.scan.ranges[0] = 0.5;
+        obs.scan.ranges[1] = 1.234; // 123 cm
         obs.objects
             .push(SemanticObject {
                 class: SemanticClass::Stairs,
@@ -799,24 +1109,26 @@ mod tests {
         obs.reference = PathReference {
             x: 1.0,
             y: 0.0,
-            heading: 0.0,
+            heading: -0.5,
         };
         obs.speed = 1.0;
+        let obs = crate::quantize::quantize(&obs);
+        assert_eq!(obs.scan.ranges[1], 1.23);
+        let mut codes = [1000u16; 64];
+        codes[0] = 50;
+        codes[1] = 123;
         let mut payload = std::vec![0u8, 0xAC, 0x02]; // variant 0, tick 300 (varint)
-        payload.extend_from_slice(&[0x00, 0x00, 0x00, 0x3F]); // beam 0: 0.5
-        for _ in 1..64 {
-            payload.extend_from_slice(&[0x00, 0x00, 0x20, 0x41]); // 10.0
-        }
+        payload.extend_from_slice(&packed(&codes));
         payload.extend_from_slice(&[
             1, // one object
             1, // Stairs
-            0x00, 0x00, 0x00, 0x40, // x 2.0
-            0x00, 0x00, 0x80, 0xBF, // y -1.0
-            0x00, 0x00, 0x80, 0x3E, // radius 0.25
-            0x00, 0x00, 0x80, 0x3F, // reference x 1.0
-            0, 0, 0, 0, // reference y
-            0, 0, 0, 0, // heading
-            0x00, 0x00, 0x80, 0x3F, // speed 1.0
+            0xD0, 0x07, // x 2000 mm
+            0x18, 0xFC, // y -1000 mm
+            0xFA, 0x00, // radius 250 mm
+            0xE8, 0x03, // reference x 1000 mm
+            0, 0, // reference y
+            0x78, 0xEC, // heading -5000e-4 rad
+            0xE8, 0x03, // speed 1000 mm/s
         ]);
         test_one(
             Message::Observation(ObservationMessage {
@@ -832,40 +1144,65 @@ mod tests {
         #[rustfmt::skip]
         let straight = [
             1, 0xAC, 0x02, // variant 1, tick 300
-            1, 0,          // Some(track), action 0
-            0, 0, 0, 0,  0x00, 0x00, 0x00, 0x3F, // segment 1: steering 0, length 0.5
-            0, 0, 0, 0,  0x00, 0x00, 0x00, 0x3F, // segment 2: steering 0, length 0.5
-            0x00, 0x00, 0x80, 0x3F,             // speed 1.0
-            0x80, 0x01,                         // allowed: action 7 alone (a u64 varint)
+            0, 0,          // Track, action 0
+            0, 0,  0xF4, 0x01, // segment 1: steering 0, length 500 mm
+            0, 0,  0xF4, 0x01, // segment 2: steering 0, length 500 mm
+            0xE8, 0x03,        // speed 1000 mm/s
+            0x80, 0x01,        // allowed: action 7 alone (a u64 varint)
         ];
         let mask = ActionMask::from_bits(1 << 7);
         test_one(
             Message::Action(ActionCommand::new(300, Some(a(0))).with_allowed(mask)),
             &straight,
         );
-        test_one(Message::Action(ActionCommand::stop(7)), &[1, 7, 0, 0]);
+        let reasons = [
+            StopReason::Blocked,
+            StopReason::Watchdog,
+            StopReason::Reset,
+            StopReason::Reconfigured,
+        ];
+        for (i, r) in reasons.into_iter().enumerate() {
+            test_one(
+                Message::Action(ActionCommand::stop(7, r)),
+                &[1, 7, 1, i as u8, 0],
+            );
+        }
+        assert_eq!(
+            ActionCommand::new(7, None),
+            ActionCommand::stop(7, StopReason::Blocked)
+        );
         // Every action allowed: 64 one bits, a ten-byte varint.
-        let mut all = std::vec![1, 7, 0];
+        let mut all = std::vec![1, 7, 1, 0];
         all.extend_from_slice(&[0xFF; 9]);
         all.push(0x01);
         test_one(
-            Message::Action(ActionCommand::stop(7).with_allowed(ActionMask::ALL)),
+            Message::Action(ActionCommand::new(7, None).with_allowed(ActionMask::ALL)),
             &all,
         );
-        // A curved one: the lattice's numbers, written as they are.
+        // A curved one: the lattice's numbers, rounded to their steps.
         let t = Track::of(a(1));
-        let mut payload = std::vec![1, 9, 1, 1];
-        for s in t.segments {
-            payload.extend_from_slice(&f(s.steering));
-            payload.extend_from_slice(&f(s.length));
+        let lattice = lattice::trajectory(a(1));
+        let mut payload = std::vec![1, 9, 0, 1];
+        for (s, l) in t.segments.iter().zip(lattice.segments.iter()) {
+            let steering = (l.steering * 10_000.0).round() as i16;
+            let length = (l.length * 1000.0).round() as u16;
+            assert_eq!(s.steering, steering as f32 / 10_000.0);
+            payload.extend_from_slice(&steering.to_le_bytes());
+            payload.extend_from_slice(&length.to_le_bytes());
         }
-        payload.extend_from_slice(&f(t.speed));
+        payload.extend_from_slice(&((lattice.speed * 1000.0).round() as u16).to_le_bytes());
         payload.push(0); // empty mask
         assert!(
             t.segments[1].steering > 0.1,
             "action 1 turns left in its second half"
         );
         test_one(Message::Action(ActionCommand::new(9, Some(a(1)))), &payload);
+        // Which commands answer an observation.
+        assert!(ActionCommand::new(1, Some(a(1))).answers_observation());
+        assert!(ActionCommand::new(1, None).answers_observation());
+        for r in &reasons[1..] {
+            assert!(!ActionCommand::stop(1, *r).answers_observation());
+        }
     }
 
     #[test]
@@ -907,11 +1244,8 @@ mod tests {
         test_one(nack(NackCode::UnknownTick), &[4, 7, 200, 0]);
         test_one(nack(NackCode::Rejected), &[4, 7, 200, 1]);
         test_one(nack(NackCode::Stale), &[4, 7, 200, 2]);
-        // 0x1234 as a varint: 0xB4 0x24.
-        test_one(
-            Message::Heartbeat(Heartbeat { counter: 0x1234 }),
-            &[5, 0xB4, 0x24],
-        );
+        test_one(nack(NackCode::WrongSession), &[4, 7, 200, 3]);
+        test_one(Message::Heartbeat, &[5]);
         test_one(Message::Reset, &[8]);
         test_one(
             Message::Error(ErrorReport {
@@ -920,23 +1254,7 @@ mod tests {
             }),
             &[9, 4, 1, 9],
         );
-        test_one(
-            Message::Error(ErrorReport {
-                code: ErrorCode::Decode,
-                tick: None,
-            }),
-            &[9, 0, 0],
-        );
-        let codes = [
-            ErrorCode::Decode,
-            ErrorCode::Version,
-            ErrorCode::Reassembly,
-            ErrorCode::WrongStream,
-            ErrorCode::Observation,
-            ErrorCode::Params,
-            ErrorCode::Internal,
-        ];
-        for (i, code) in codes.into_iter().enumerate() {
+        for (i, code) in ERROR_CODES.into_iter().enumerate() {
             let m = Message::Error(ErrorReport { code, tick: None });
             test_one(m, &[9, i as u8, 0]);
         }
@@ -955,13 +1273,24 @@ mod tests {
                 steps: 3,
             },
         };
-        let mut payload = std::vec![6, 1, 0]; // variant 6, version 1, kind Ogd
+        // variant 6, status: Some(session 9), generation 300; snapshot: version 1, kind Ogd
+        let mut payload = std::vec![6, 1, 9, 0xAC, 0x02, 1, 0];
         payload.extend_from_slice(&[0x0A, 0xD7, 0x23, 0x3C]); // step 0.01
         payload.push(0); // no radius
         payload.extend_from_slice(&[0; 24]); // initial weights
         payload.extend_from_slice(&[0; 72]); // iterate, average, accumulator
         payload.push(3); // steps
-        test_one(Message::Weights(snap), &payload);
+        let status = CarStatus {
+            session: Some(9),
+            generation: 300,
+        };
+        test_one(
+            Message::Weights(WeightsReport {
+                status,
+                snapshot: snap,
+            }),
+            &payload,
+        );
 
         let mut cfg = LearnerParams::new(LearnerKind::AdaGrad).with_radius(2.0);
         cfg.initial[5] = -1.0;
@@ -998,6 +1327,33 @@ mod tests {
     }
 
     #[test]
+    fn golden_hello_and_welcome() {
+        let nonce = [1, 2, 3, 4, 5, 6, 7, 8];
+        test_one(
+            Message::Hello(Hello {
+                nonce,
+                epoch: 300,
+                counter: 5,
+            }),
+            &[11, 1, 2, 3, 4, 5, 6, 7, 8, 0xAC, 0x02, 5],
+        );
+        test_one(
+            Message::Welcome(Welcome {
+                nonce,
+                epoch: 300,
+                counter: 7,
+                host_next: 6,
+                status: CarStatus {
+                    session: None,
+                    generation: 0,
+                },
+                refused: 2,
+            }),
+            &[12, 1, 2, 3, 4, 5, 6, 7, 8, 0xAC, 0x02, 7, 6, 0, 0, 2],
+        );
+    }
+
+    #[test]
     fn maximum_sizes_are_reached_by_the_worst_case_values() {
         let mut obs = Observation::open_space();
         while obs
@@ -1029,19 +1385,23 @@ mod tests {
                 steps: u32::MAX,
             },
         };
+        let status = CarStatus {
+            session: Some(u8::MAX),
+            generation: u32::MAX,
+        };
         let worst = [
             (
                 Message::Observation(ObservationMessage {
                     tick: u32::MAX,
                     observation: obs,
                 }),
-                386,
+                157,
             ),
             (
                 Message::Action(
                     ActionCommand::new(u32::MAX, Some(a(63))).with_allowed(ActionMask::ALL),
                 ),
-                41,
+                34,
             ),
             (
                 Message::Feedback(FeedbackMessage {
@@ -1049,34 +1409,53 @@ mod tests {
                     tick: u32::MAX,
                     feedback: Feedback::Semantic(every),
                 }),
-                24,
+                27,
             ),
-            (Message::Ack(Ack { id: ID }), 6),
+            (Message::Ack(Ack { id: ID }), 9),
             (
                 Message::Nack(Nack {
                     id: ID,
                     code: NackCode::Stale,
                 }),
-                7,
+                10,
             ),
-            (Message::Heartbeat(Heartbeat { counter: u16::MAX }), 7),
-            (Message::Weights(snapshot), 118),
+            (Message::Heartbeat, 7),
+            (Message::Weights(WeightsReport { status, snapshot }), 128),
             (
                 Message::Configure(ConfigureMessage {
                     session: u8::MAX,
                     snapshot,
                 }),
-                119,
+                122,
             ),
-            (Message::Reset, 4),
+            (Message::Reset, 7),
             (
                 Message::Error(ErrorReport {
                     code: ErrorCode::Internal,
                     tick: Some(u32::MAX),
                 }),
-                11,
+                14,
             ),
-            (Message::WeightsRequest, 4),
+            (Message::WeightsRequest, 7),
+            (
+                Message::Hello(Hello {
+                    nonce: [0xFF; NONCE_LEN],
+                    epoch: u32::MAX,
+                    counter: u32::MAX,
+                }),
+                25,
+            ),
+            (
+                Message::Welcome(Welcome {
+                    nonce: [0xFF; NONCE_LEN],
+                    epoch: u32::MAX,
+                    counter: u32::MAX,
+                    host_next: u32::MAX,
+                    status,
+                    refused: u32::MAX,
+                }),
+                42,
+            ),
         ];
         let mut buf = [0u8; MAX_MESSAGE_SIZE];
         for (i, (msg, size)) in worst.into_iter().enumerate() {
@@ -1088,12 +1467,14 @@ mod tests {
             );
             assert_eq!(kind.max_encoded_size(), size, "{kind}");
             assert_eq!(
-                msg.emit(&mut buf).unwrap().len(),
+                msg.emit(&mut buf).unwrap().len() - ENVELOPE_OVERHEAD + SECURED_OVERHEAD,
                 size,
                 "{kind} reaches its bound"
             );
+            assert_eq!(MessageKind::from_tag(i as u8), Some(kind));
         }
-        assert_eq!(MAX_MESSAGE_SIZE, 386);
+        assert_eq!(MessageKind::from_tag(13), None);
+        assert_eq!(MAX_MESSAGE_SIZE, 157);
     }
 
     #[test]
@@ -1102,8 +1483,11 @@ mod tests {
             let track = Track::of(action);
             assert_eq!(track.check(), Ok(()), "{action}");
             let t = lattice::trajectory(action);
-            assert_eq!(track.segments[1].steering, t.segments[1].steering);
-            assert_eq!(track.speed, t.speed);
+            assert!((track.segments[1].steering - t.segments[1].steering).abs() <= 0.5e-4);
+            assert!((track.segments[0].length - t.segments[0].length).abs() <= 0.5e-3);
+            assert!((track.speed - t.speed).abs() <= 0.5e-3);
+            // What is sent is what arrives.
+            assert_eq!(Track::from(WireTrack::from(track)), track);
         }
     }
 
@@ -1114,7 +1498,7 @@ mod tests {
             edit(&mut t);
             let msg = Message::Action(ActionCommand {
                 tick: 1,
-                track: Some(t),
+                command: Command::Track(t),
                 allowed: ActionMask::ALL,
             });
             let mut buf = [0u8; MAX_MESSAGE_SIZE];
@@ -1123,10 +1507,10 @@ mod tests {
         assert!(bad(|_| {}).is_ok());
         assert!(bad(|t| t.segments[0].steering = MAX_STEERING).is_ok());
         let refused: [fn(&mut Track); 7] = [
-            |t| t.segments[0].steering = f32::NAN,
+            |t| t.segments[0].steering = 0.3401,
             |t| t.segments[1].steering = -0.35,
-            |t| t.segments[0].length = -0.1,
-            |t| t.segments[1].length = f32::INFINITY,
+            |t| t.segments[1].steering = f32::INFINITY,
+            |t| t.segments[0].length = 1.001,
             |t| t.speed = 0.0,
             |t| t.speed = MAX_SPEED * 1.01,
             |t| t.speed = f32::NAN,
@@ -1150,31 +1534,31 @@ mod tests {
             Message::parse(&crc_bad),
             Err(DecodeError::Envelope(EnvelopeError::Crc))
         );
-        // Re-seal by hand with version 1, then with a trailing byte, then an unknown variant.
+        // Re-seal by hand with version 2, then with a trailing byte, then an unknown variant.
         let reseal = |body: &[u8]| {
             let mut v = body.to_vec();
             let crc = CRC16.checksum(body).to_le_bytes();
             v.extend_from_slice(&crc);
             v
         };
-        let e = Message::parse(&reseal(&[1, 8])).unwrap_err();
-        assert_eq!(e, DecodeError::Envelope(EnvelopeError::Version(1)));
+        let e = Message::parse(&reseal(&[2, 8])).unwrap_err();
+        assert_eq!(e, DecodeError::Envelope(EnvelopeError::Version(2)));
         assert_eq!(e.code(), ErrorCode::Version);
         assert_eq!(
-            Message::parse(&reseal(&[2, 8, 0])),
+            Message::parse(&reseal(&[3, 8, 0])),
             Err(DecodeError::Envelope(EnvelopeError::TrailingBytes))
         );
         assert_eq!(
-            Message::parse(&reseal(&[2, 11])),
+            Message::parse(&reseal(&[3, 13])),
             Err(DecodeError::Envelope(EnvelopeError::Decode))
         );
         // An action index of 64 is not an action.
         assert_eq!(
-            Message::parse(&reseal(&[2, 2, 7, 200, 1, 0, 64])),
+            Message::parse(&reseal(&[3, 2, 7, 200, 1, 0, 64])),
             Err(DecodeError::Envelope(EnvelopeError::Decode))
         );
         assert_eq!(
-            Message::parse(&reseal(&[2, 2, 7, 200, 1, 0, 63])).map(|m| m.kind()),
+            Message::parse(&reseal(&[3, 2, 7, 200, 1, 0, 63])).map(|m| m.kind()),
             Ok(MessageKind::Feedback)
         );
     }
@@ -1197,7 +1581,7 @@ mod tests {
         fn messages_round_trip(msg in message()) {
             let mut buf = [0u8; MAX_MESSAGE_SIZE];
             let bytes = msg.emit(&mut buf).unwrap();
-            prop_assert!(bytes.len() <= msg.kind().max_encoded_size());
+            prop_assert!(bytes.len() <= msg.kind().max_stored_size());
             prop_assert_eq!(bytes[1], msg.kind() as u8);
             prop_assert_eq!(Message::parse(bytes), Ok(msg));
         }
@@ -1205,12 +1589,13 @@ mod tests {
         #[test]
         fn any_bytes_give_a_message_or_an_error(bytes in proptest::collection::vec(any::<u8>(), 0..400)) {
             let _ = Message::parse(&bytes);
+            let _ = Message::decode_payload(&bytes);
         }
 
         #[test]
         fn resealed_random_payloads_give_a_message_or_an_error(
             payload in proptest::collection::vec(any::<u8>(), 0..400),
-            tag in 0u8..12,
+            tag in 0u8..14,
         ) {
             // Past the CRC, so postcard's decoder and the track check see arbitrary bytes.
             let mut body = std::vec![PROTOCOL_VERSION_BYTE, tag];

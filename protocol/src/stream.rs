@@ -14,10 +14,10 @@
 //! | 0x104 / 0x105 | [`Class::Observation`] | observation | (unused) |
 //! | 0x106 / 0x107 | [`Class::Feedback`] | feedback | ack, nack |
 //! | 0x108 / 0x109 | [`Class::Error`] | error report | error report |
-//! | 0x10A / 0x10B | [`Class::Config`] | learner configuration, weights request | weights report |
+//! | 0x10A / 0x10B | [`Class::Config`] | learner configuration, weights request, hello | weights report, welcome |
 //!
 //! The action command outranks everything else of the protocol because the car must not wait for
-//! an observation's 56 frames to say "stop". Identifiers below [`ID_BASE`] stay free for traffic
+//! an observation's 23 frames to say "stop". Identifiers below [`ID_BASE`] stay free for traffic
 //! that must win over this protocol (a hardware emergency stop, the motor controller).
 //!
 //! [`Reassembler`]: crate::isotp::Reassembler
@@ -83,7 +83,8 @@ pub enum Class {
     Feedback = 3,
     /// Error reports, both ways.
     Error = 4,
-    /// Learner configuration and weights requests (host → car), weights reports (car → host).
+    /// Learner configuration, weights requests and hellos (host → car), weights reports and
+    /// welcomes (car → host).
     Config = 5,
 }
 
@@ -106,9 +107,11 @@ impl Class {
             MessageKind::Observation => Class::Observation,
             MessageKind::Feedback | MessageKind::Ack | MessageKind::Nack => Class::Feedback,
             MessageKind::Error => Class::Error,
-            MessageKind::Configure | MessageKind::Weights | MessageKind::WeightsRequest => {
-                Class::Config
-            }
+            MessageKind::Configure
+            | MessageKind::Weights
+            | MessageKind::WeightsRequest
+            | MessageKind::Hello
+            | MessageKind::Welcome => Class::Config,
         }
     }
 }
@@ -120,10 +123,13 @@ pub const fn direction_of(kind: MessageKind) -> Option<Direction> {
         | MessageKind::Feedback
         | MessageKind::Configure
         | MessageKind::WeightsRequest
-        | MessageKind::Reset => Some(Direction::HostToCar),
-        MessageKind::Action | MessageKind::Ack | MessageKind::Nack | MessageKind::Weights => {
-            Some(Direction::CarToHost)
-        }
+        | MessageKind::Reset
+        | MessageKind::Hello => Some(Direction::HostToCar),
+        MessageKind::Action
+        | MessageKind::Ack
+        | MessageKind::Nack
+        | MessageKind::Weights
+        | MessageKind::Welcome => Some(Direction::CarToHost),
         MessageKind::Heartbeat | MessageKind::Error => None,
     }
 }
@@ -156,7 +162,8 @@ impl Stream {
         CanId::Standard(self.raw_id())
     }
 
-    const fn raw_id(self) -> u16 {
+    /// Its 11-bit identifier.
+    pub const fn raw_id(self) -> u16 {
         ID_BASE + 2 * self.class as u16 + self.direction as u16
     }
 

@@ -10,7 +10,7 @@
 //! the experiment made to the agent, in order, to `OUT`. Each item is a little-endian `u16`
 //! length followed by one sealed [`Message`] (versioned postcard envelope with its CRC):
 //!
-//! * `Weights(snapshot)`: start of a run: restore this learner, forget the ticks;
+//! * `Weights(report)`: start of a run: restore the report's learner, forget the ticks;
 //! * `Observation { tick, observation }`: act on it;
 //! * `Feedback { tick, feedback, .. }`: learn from it.
 //!
@@ -27,7 +27,9 @@ use host_sim::teach::experiment::{CarLink, InProcessLink, Mode, RunConfig, run_w
 use host_sim::world::registry;
 use host_sim::world::teacher::FeedbackKind;
 use protocol::MAX_MESSAGE_SIZE;
-use protocol::message::{DeliveryId, FeedbackMessage, Message, ObservationMessage};
+use protocol::message::{
+    CarStatus, DeliveryId, FeedbackMessage, Message, ObservationMessage, WeightsReport,
+};
 
 /// Forwards to the in-process agent and appends every call to `out`.
 struct Recorder {
@@ -49,7 +51,10 @@ impl Recorder {
 
 impl CarLink for Recorder {
     fn restore(&mut self, snapshot: &LearnerSnapshot) -> Result<()> {
-        self.push(&Message::Weights(*snapshot))?;
+        self.push(&Message::Weights(WeightsReport {
+            status: CarStatus::default(),
+            snapshot: *snapshot,
+        }))?;
         self.inner.restore(snapshot)
     }
 

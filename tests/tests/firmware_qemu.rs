@@ -8,11 +8,14 @@
 //!
 //! ```text
 //! scripts/setup-qemu
+//! export CAR_KEY_FILE=$PWD/target/car.key; [ -f $CAR_KEY_FILE ] || cargo run -p hil_mock -- keygen $CAR_KEY_FILE
 //! (cd hil_mock/firmware && cargo build --release)
 //! cargo test -p tests --test firmware_qemu -- --ignored
 //! ```
 //!
-//! `CAR_FIRMWARE_IMAGE` overrides the image's path. QEMU listens on a port of 127.0.0.1 it picks
+//! The image holds the car's key from build time (`CAR_KEY_FILE=FILE` when it is built); the
+//! test reads the same file from the same variable. `CAR_FIRMWARE_IMAGE` overrides the image's
+//! path. QEMU listens on a port of 127.0.0.1 it picks
 //! itself and is killed when the test ends, however it ends. No assertion depends on time: the
 //! client waits for each answer up to a generous deadline only so that a broken image fails
 //! instead of hanging, and a late answer costs a retransmission, never a different result.
@@ -32,7 +35,6 @@ use host_sim::teach::remote::{RemoteCar, RemoteConfig};
 use host_sim::world::registry;
 use host_sim::world::teacher::FeedbackKind;
 use protocol::isotp::FrameMode;
-use protocol::message::Message;
 
 /// QEMU running the image, killed on drop.
 struct Qemu(Child);
@@ -104,7 +106,15 @@ fn start_qemu(mode: &str) -> Result<(Qemu, u16)> {
 /// The snapshot's exact bytes (postcard keeps every f32's bit pattern).
 fn bytes_of(snapshot: &LearnerSnapshot) -> Vec<u8> {
     let mut buf = [0u8; protocol::MAX_MESSAGE_SIZE];
-    Message::Weights(*snapshot).emit(&mut buf).unwrap().to_vec()
+    protocol::seal(snapshot, &mut buf).unwrap().to_vec()
+}
+
+/// The key the image was built with: the file named by `CAR_KEY_FILE`.
+fn car_key() -> Result<protocol::secure::Key> {
+    let path = std::env::var_os("CAR_KEY_FILE").context(
+        "CAR_KEY_FILE: the key file the firmware image was built with (hil_mock keygen FILE)",
+    )?;
+    Ok(hil_mock::key::read_key_file(std::path::Path::new(&path))?)
 }
 
 #[test]
@@ -132,7 +142,7 @@ fn qemu_firmware_run_is_bit_identical_to_the_in_process_run() -> Result<()> {
             mode: FrameMode::Classic,
             try_timeout: Duration::from_secs(1),
             deadline: Duration::from_secs(60),
-            session: Some(1),
+            key: car_key()?,
         },
     );
     let there = run_with(&config, &mut car, &mut |_| {})?;

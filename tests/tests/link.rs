@@ -2,21 +2,19 @@
 //! (a `protocol::car::CarNode`) behind real transports, faults, restarts and the watchdog.
 //!
 //! Every run is compared with the same run in process: per-step CSV bytes and the final weights'
-//! bit patterns must be identical. Sockets are on 127.0.0.1, ports ephemeral. No assertion is
-//! about time: waits are generous upper bounds on things that must happen.
+//! bit patterns must be identical. Every message is authenticated with one test key. Sockets are
+//! on 127.0.0.1, ports ephemeral. No assertion is about time: waits are generous upper bounds on
+//! things that must happen.
 
-use std::io::{BufRead, BufReader};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use std::sync::{Arc, Mutex};
-use std::thread::JoinHandle;
 use std::time::Duration;
 
 use firmware_core::observation::Observation;
-use hil_mock::flash::{FlashStore, PAGE_SIZE};
-use hil_mock::server::{LinkBus, Server};
+use hil_mock::flash::{FlashStore, HEADER_SIZE, Open, PAGE_SIZE, PageStatus};
+use hil_mock::server::LinkBus;
 use hil_mock::transport::fault::{FaultConfig, FaultyLink};
 use hil_mock::transport::memory::MemoryLink;
 use hil_mock::transport::reconnect::ReconnectingLink;
@@ -25,103 +23,17 @@ use hil_mock::transport::slcan::SlcanLink;
 use hil_mock::transport::udp::UdpLink;
 use hil_mock::transport::{Link, LinkAddress};
 use host_sim::teach::experiment::{self, CarLink, RunConfig};
-use host_sim::teach::record::RunReport;
-use host_sim::teach::remote::{RemoteCar, RemoteConfig, RemoteStats};
-use protocol::car::{CarConfig, CarStats, Persisted};
+use host_sim::teach::remote::{RemoteCar, RemoteConfig};
+use protocol::car::{CarConfig, Persisted};
 use protocol::isotp::FrameMode;
 use protocol::link::{Inbox, Received, transmit};
-use protocol::message::{ActionCommand, Message, ObservationMessage};
+use protocol::message::{ActionCommand, ConfigureMessage, Message, ObservationMessage, StopReason};
+use protocol::secure::HostSecurity;
 use protocol::stream::Direction;
 
-const SEED: u64 = 11;
+mod common;
 
-fn config(steps: u32) -> RunConfig {
-    let scenario = host_sim::world::registry::load_scenario("doors").unwrap();
-    RunConfig {
-        steps,
-        seed: SEED,
-        ..RunConfig::new(Arc::new(scenario))
-    }
-}
-
-fn remote_config(mode: FrameMode) -> RemoteConfig {
-    RemoteConfig {
-        mode,
-        try_timeout: Duration::from_millis(3),
-        deadline: Duration::from_secs(30),
-        session: Some(40),
-    }
-}
-
-/// A `CarNode` serving `link` in a thread until stopped; gives back its counters.
-struct ServerThread {
-    stop: Arc<AtomicBool>,
-    handle: JoinHandle<CarStats>,
-}
-
-impl ServerThread {
-    fn spawn<L: Link + 'static>(open: impl FnOnce() -> L + Send + 'static, car: CarConfig) -> Self {
-        let stop = Arc::new(AtomicBool::new(false));
-        let flag = stop.clone();
-        let handle = std::thread::spawn(move || {
-            let mut link = open();
-            let mut server = Server::in_memory(car);
-            match server.run(&mut link, &flag) {
-                // The host hung up (a memory link's other end dropped): the end of the test.
-                Ok(()) | Err(hil_mock::transport::LinkError::Closed(_)) => {}
-                Err(e) => panic!("the server's link: {e}"),
-            }
-            server.node().stats()
-        });
-        Self { stop, handle }
-    }
-
-    fn stop(self) -> CarStats {
-        self.stop.store(true, Ordering::Relaxed);
-        self.handle.join().expect("the server thread")
-    }
-}
-
-fn car(mode: FrameMode) -> CarConfig {
-    CarConfig {
-        mode,
-        ..CarConfig::default()
-    }
-}
-
-fn remote_run<L: Link>(config: &RunConfig, link: L, mode: FrameMode) -> (RunReport, RemoteStats) {
-    let mut remote = RemoteCar::new(link, remote_config(mode));
-    let report = experiment::run_with(config, &mut remote, &mut |_| {}).unwrap();
-    (report, remote.stats())
-}
-
-#[track_caller]
-fn assert_same(a: &RunReport, b: &RunReport, what: &str) {
-    assert!(
-        a.csv_bytes() == b.csv_bytes(),
-        "{what}: per-step CSV differs"
-    );
-    assert_eq!(
-        tests::weight_bits(&a.final_snapshot.state.iterate),
-        tests::weight_bits(&b.final_snapshot.state.iterate),
-        "{what}: final iterate"
-    );
-    assert_eq!(
-        tests::weight_bits(&a.final_snapshot.state.average),
-        tests::weight_bits(&b.final_snapshot.state.average),
-        "{what}: final weights"
-    );
-    assert_eq!(a.final_snapshot, b.final_snapshot, "{what}: final snapshot");
-}
-
-fn udp_pair() -> (UdpLink, UdpLink) {
-    let car = UdpLink::listen(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0)).unwrap();
-    let SocketAddr::V4(addr) = car.local_addr().unwrap() else {
-        unreachable!("bound on 127.0.0.1")
-    };
-    let host = UdpLink::connect(addr).unwrap();
-    (host, car)
-}
+use common::*;
 
 #[test]
 fn same_seed_same_bits_in_process_over_memory_udp_and_slcan() {
@@ -153,14 +65,14 @@ fn same_seed_same_bits_in_process_over_memory_udp_and_slcan() {
             .filter(|l| l.frame.id().raw() == id as u32)
             .count()
     };
-    // Every observation (5 FD frames each in open space, more with objects) and its action.
-    assert!(on(0x104) >= 5 * 600, "{}", on(0x104));
+    // Every observation (2 FD frames each, 3 with many objects) and its action.
+    assert!(on(0x104) >= 2 * 600, "{}", on(0x104));
     // At least one action frame per tick and one ack per feedback (more when a slow answer
     // made the host ask again).
     assert!(on(0x101) >= 600, "{}", on(0x101));
     assert!(on(0x107) >= local.corrections() as usize);
 
-    // slcan over TCP, classic CAN frames (56 per observation) both ways.
+    // slcan over TCP, classic CAN frames (up to 23 per observation) both ways.
     let listener = TcpListener::bind("127.0.0.1:0").unwrap();
     let SocketAddr::V4(addr) = listener.local_addr().unwrap() else {
         unreachable!("bound on 127.0.0.1")
@@ -238,129 +150,6 @@ fn faults_both_ways_lose_no_feedback_and_apply_none_twice() {
             stats.errors > 0,
             "the car reported lost messages: {stats:?}"
         );
-    }
-}
-
-/// The `hil_mock` program as a child process, serving UDP on a fixed port with a flash file.
-struct Child9 {
-    child: Child,
-    port: u16,
-    stderr: Arc<Mutex<String>>,
-    reader: Option<JoinHandle<()>>,
-}
-
-fn spawn_server(flash: &Path, port: u16) -> Child9 {
-    spawn_server_on(flash, "udp-listen", port)
-}
-
-/// The same, listening with `scheme` (`udp-listen`, `slcan+tcp-listen`).
-fn spawn_server_on(flash: &Path, scheme: &str, port: u16) -> Child9 {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_hil_mock_server"))
-        .args(["serve", "--link"])
-        .arg(format!("{scheme}://127.0.0.1:{port}"))
-        .arg("--flash")
-        .arg(flash)
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start hil_mock");
-    let mut line = String::new();
-    BufReader::new(child.stdout.take().unwrap())
-        .read_line(&mut line)
-        .unwrap();
-    let port = line
-        .trim()
-        .rsplit(':')
-        .next()
-        .and_then(|p| p.parse().ok())
-        .unwrap_or_else(|| panic!("hil_mock said {line:?}"));
-    let stderr = Arc::new(Mutex::new(String::new()));
-    let sink = stderr.clone();
-    let err = child.stderr.take().unwrap();
-    let reader = std::thread::spawn(move || {
-        for l in BufReader::new(err).lines().map_while(Result::ok) {
-            sink.lock().unwrap().push_str(&(l + "\n"));
-        }
-    });
-    Child9 {
-        child,
-        port,
-        stderr,
-        reader: Some(reader),
-    }
-}
-
-impl Child9 {
-    /// The child's stderr so far, once `ready` holds for it (or after 30 s).
-    fn stderr_when(&self, ready: impl Fn(&str) -> bool) -> String {
-        for _ in 0..30_000 {
-            let log = self.stderr.lock().unwrap().clone();
-            if ready(&log) {
-                return log;
-            }
-            std::thread::sleep(Duration::from_millis(1));
-        }
-        self.stderr.lock().unwrap().clone()
-    }
-
-    fn kill9(&mut self) {
-        // `Child::kill` is SIGKILL on Unix.
-        self.child.kill().unwrap();
-        self.child.wait().unwrap();
-        // Its stderr is complete once the reader has seen the end of the pipe.
-        if let Some(r) = self.reader.take() {
-            let _ = r.join();
-        }
-    }
-}
-
-impl Drop for Child9 {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-/// Waits until `ready` (the supervisor restarted the server); a generous bound turns a stuck
-/// supervisor into a failure instead of a hang.
-fn wait_for(ready: impl Fn() -> bool) {
-    for _ in 0..60_000 {
-        if ready() {
-            return;
-        }
-        std::thread::sleep(Duration::from_millis(1));
-    }
-    panic!("the supervisor did not restart hil_mock within a minute");
-}
-
-/// A [`CarLink`] that has the car killed (and restarted) before some feedbacks.
-struct KillBeforeFeedback<'a, C: CarLink> {
-    inner: C,
-    feedbacks: u32,
-    at: &'a [u32],
-    kill: &'a dyn Fn(bool),
-}
-
-impl<C: CarLink> CarLink for KillBeforeFeedback<'_, C> {
-    fn restore(&mut self, snapshot: &firmware_core::LearnerSnapshot) -> anyhow::Result<()> {
-        self.inner.restore(snapshot)
-    }
-    fn act(
-        &mut self,
-        tick: u32,
-        obs: &Observation,
-    ) -> anyhow::Result<firmware_core::agent::Decision> {
-        self.inner.act(tick, obs)
-    }
-    fn feedback(&mut self, tick: u32, feedback: &firmware_core::Feedback) -> anyhow::Result<()> {
-        self.feedbacks += 1;
-        if self.at.contains(&self.feedbacks) {
-            (self.kill)(true);
-        }
-        self.inner.feedback(tick, feedback)
-    }
-    fn snapshot(&mut self) -> anyhow::Result<firmware_core::LearnerSnapshot> {
-        self.inner.snapshot()
     }
 }
 
@@ -455,9 +244,16 @@ fn sigkill_and_restart(scheme: &'static str) {
         assert!(link.contains(&format!("reopened {KILLS} times")), "{link}");
     }
     // Every restart found what the previous process wrote (the configuration at least).
-    assert_eq!(log.matches("restored generation").count(), KILLS, "{log}");
+    assert_eq!(log.matches("restored write").count(), KILLS, "{log}");
+    // No restart lost state: the car was never configured again.
+    assert_eq!(remote.stats().restores, 0, "{:?}", remote.stats());
+    assert!(
+        remote.stats().car_restarts >= KILLS as u64,
+        "{:?}",
+        remote.stats()
+    );
     // The flash holds the final learner.
-    let (_, r) = FlashStore::open(&flash).unwrap();
+    let (_, r) = FlashStore::open(&flash, Open::Existing).unwrap();
     assert_eq!(r.unwrap().state.snapshot, report.final_snapshot);
 }
 
@@ -470,17 +266,18 @@ fn a_corrupted_page_on_disk_falls_back_to_the_other_page() {
     firmware_core::OnlineLearner::step(&mut older, &[0.5, -0.25, 0.0, 0.0, 1.0, 0.0]).unwrap();
     let mut newer = older;
     firmware_core::OnlineLearner::step(&mut newer, &[0.5, -0.25, 0.0, 0.0, 1.0, 0.0]).unwrap();
-    let state = |l: &firmware_core::Learner| Persisted {
+    let state = |l: &firmware_core::Learner, generation| Persisted {
         session: Some(3),
+        generation,
         snapshot: l.snapshot(),
         receiver: Default::default(),
     };
-    let (mut store, _) = FlashStore::open(&flash).unwrap();
-    store.save(&state(&older)).unwrap(); // page 0, generation 1
-    store.save(&state(&newer)).unwrap(); // page 1, generation 2
+    let (mut store, _) = FlashStore::open(&flash, Open::Existing).unwrap();
+    store.save(&state(&older, 1)).unwrap(); // page 0, write 1
+    store.save(&state(&newer, 2)).unwrap(); // page 1, write 2
     drop(store);
     let mut bytes = std::fs::read(&flash).unwrap();
-    bytes[PAGE_SIZE + 60] ^= 0x04; // one bit of the newer page's payload
+    bytes[HEADER_SIZE + PAGE_SIZE + 60] ^= 0x04; // one bit of the newer page's payload
     std::fs::write(&flash, &bytes).unwrap();
 
     let server = spawn_server(&flash, 0);
@@ -489,43 +286,95 @@ fn a_corrupted_page_on_disk_falls_back_to_the_other_page() {
     assert_eq!(remote.snapshot().unwrap(), older.snapshot());
     let log = server.stderr_when(|l| l.contains("restored"));
     assert!(
-        log.contains("restored generation 1 from page 0")
+        log.contains("restored write 1 from page 0")
             && log.contains("fell back from corrupt page 1"),
         "{log}"
     );
+    // The welcome told the host what the car holds.
+    assert_eq!(
+        remote.car_status(),
+        Some(protocol::message::CarStatus {
+            session: Some(3),
+            generation: 1
+        })
+    );
 }
 
-/// Sends one observation and returns the next action command the car sends for `tick`.
-fn observe(host: &mut MemoryLink, inbox: &mut Inbox, tick: u32) -> ActionCommand {
-    let msg = Message::Observation(ObservationMessage {
-        tick,
-        observation: Observation::open_space(),
-    });
-    transmit(
-        &mut LinkBus(host),
-        &msg,
-        Direction::HostToCar,
-        FrameMode::Fd,
-    )
-    .unwrap();
-    next_action(host, inbox)
+/// The host's side of a raw exchange with a car that just started in epoch 7 (as
+/// [`ServerThread`] starts it).
+struct RawHost {
+    link: MemoryLink,
+    inbox: Inbox,
+    sec: HostSecurity,
 }
 
-fn next_action(host: &mut MemoryLink, inbox: &mut Inbox) -> ActionCommand {
-    loop {
-        let f = host
-            .recv(Duration::from_secs(30))
-            .unwrap()
-            .expect("the car answers");
-        if let Received::Message(Message::Action(a)) = inbox.feed(&f, 0) {
-            return a;
+impl RawHost {
+    fn new(link: MemoryLink) -> Self {
+        Self {
+            link,
+            inbox: Inbox::new(Direction::CarToHost),
+            sec: HostSecurity::assume_fresh_car(&KEY, 7),
         }
+    }
+
+    fn send(&mut self, msg: &Message) {
+        transmit(
+            &mut LinkBus(&mut self.link),
+            msg,
+            Direction::HostToCar,
+            FrameMode::Fd,
+            &mut self.sec,
+        )
+        .unwrap();
+    }
+
+    /// The next message from the car.
+    fn next(&mut self) -> Message {
+        loop {
+            let f = self
+                .link
+                .recv(Duration::from_secs(30))
+                .unwrap()
+                .expect("the car answers");
+            if let Received::Message(m) = self.inbox.feed(&f, 0, &mut self.sec) {
+                return m;
+            }
+        }
+    }
+
+    fn next_action(&mut self) -> ActionCommand {
+        loop {
+            if let Message::Action(a) = self.next() {
+                return a;
+            }
+        }
+    }
+
+    fn configure(&mut self) {
+        self.send(&Message::Configure(ConfigureMessage {
+            session: 1,
+            snapshot: hil_mock::server::fresh_learner().snapshot(),
+        }));
+        assert_eq!(
+            self.next_action(),
+            ActionCommand::stop(0, StopReason::Reconfigured)
+        );
+        assert!(matches!(self.next(), Message::Weights(_)));
+    }
+
+    /// Sends one observation and returns the next action command.
+    fn observe(&mut self, tick: u32) -> ActionCommand {
+        self.send(&Message::Observation(ObservationMessage {
+            tick,
+            observation: Observation::open_space(),
+        }));
+        self.next_action()
     }
 }
 
 #[test]
 fn the_watchdog_stops_the_car_and_the_next_observation_resumes() {
-    let (mut host, car_end) = MemoryLink::pair();
+    let (host, car_end) = MemoryLink::pair();
     let server = ServerThread::spawn(
         move || car_end,
         CarConfig {
@@ -533,20 +382,41 @@ fn the_watchdog_stops_the_car_and_the_next_observation_resumes() {
             mode: FrameMode::Fd,
         },
     );
-    let mut inbox = Inbox::new(Direction::CarToHost);
-    let first = observe(&mut host, &mut inbox, 1);
-    assert!(first.track.is_some());
+    let mut host = RawHost::new(host);
+    host.configure();
+    let first = host.observe(1);
+    assert!(first.track().is_some());
     // Silence: the car commands one stop for its last tick (waited for, not timed).
-    let stop = next_action(&mut host, &mut inbox);
-    assert_eq!(stop, ActionCommand::stop(1));
+    let stop = host.next_action();
+    assert_eq!(stop, ActionCommand::stop(1, StopReason::Watchdog));
     // Observations return: it drives again, and stops again when they stop.
-    let resumed = observe(&mut host, &mut inbox, 2);
+    let resumed = host.observe(2);
     assert_eq!(resumed.tick, 2);
-    assert!(resumed.track.is_some());
-    assert_eq!(next_action(&mut host, &mut inbox), ActionCommand::stop(2));
+    assert!(resumed.track().is_some());
+    assert_eq!(
+        host.next_action(),
+        ActionCommand::stop(2, StopReason::Watchdog)
+    );
+    // Issue 14: a reset stops the car at once and does not disarm the watchdog: when the car
+    // drives again and observations cease, the stop comes.
+    assert!(host.observe(3).track().is_some());
+    host.send(&Message::Reset);
+    assert_eq!(
+        host.next_action(),
+        ActionCommand::stop(3, StopReason::Reset)
+    );
+    assert!(host.observe(4).track().is_some());
+    assert_eq!(
+        host.next_action(),
+        ActionCommand::stop(4, StopReason::Watchdog)
+    );
     drop(host);
     let stats = server.stop();
-    assert_eq!((stats.watchdog_stops, stats.actions), (2, 2));
+    assert_eq!((stats.watchdog_stops, stats.actions), (3, 4));
+    assert_eq!(
+        stats.commanded_stops, 2,
+        "the configuration's and the reset's"
+    );
 }
 
 #[test]
@@ -582,5 +452,118 @@ fn run_link_addresses_are_checked() {
         "udp://127.0.0.1",
     ] {
         assert!(bad.parse::<LinkAddress>().is_err(), "{bad}");
+    }
+}
+
+/// Which flash pages a restart finds corrupted.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Corrupt {
+    /// Both: the car comes back without a configured learner.
+    Both,
+    /// The newest good one: the car comes back with the state before its last write.
+    Newest,
+}
+
+/// Flips a byte in the payload of the pages `which` names.
+fn corrupt(flash: &Path, which: Corrupt) {
+    let mut bytes = std::fs::read(flash).unwrap();
+    let (pages, _) = hil_mock::flash::decode_pages(&bytes);
+    let newest = pages
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| match p {
+            PageStatus::Good(g) => Some((*g, i)),
+            _ => None,
+        })
+        .max()
+        .map(|(_, i)| i);
+    for i in 0..2 {
+        if which == Corrupt::Both || Some(i) == newest {
+            bytes[HEADER_SIZE + i * PAGE_SIZE + 40] ^= 0x01;
+        }
+    }
+    std::fs::write(flash, bytes).unwrap();
+}
+
+/// A run with `hil_mock` (a child process) killed with SIGKILL before feedback number
+/// `before_feedback`, its flash corrupted as `which` says, and restarted on the same port and
+/// flash file.
+fn run_with_a_lossy_restart(
+    config: &RunConfig,
+    before_feedback: u32,
+    which: Corrupt,
+) -> (
+    anyhow::Result<host_sim::teach::record::RunReport>,
+    host_sim::teach::remote::RemoteStats,
+    String,
+) {
+    let dir = tempfile::tempdir().unwrap();
+    let flash = dir.path().join("car.flash");
+    let server = std::sync::Mutex::new(spawn_server(&flash, 0));
+    let port = server.lock().unwrap().port;
+    let host = UdpLink::connect(SocketAddrV4::new(Ipv4Addr::LOCALHOST, port)).unwrap();
+    let log = std::sync::Mutex::new(String::new());
+    let kill = |_: bool| {
+        let mut s = server.lock().unwrap();
+        s.kill9();
+        log.lock().unwrap().push_str(&s.stderr.lock().unwrap());
+        corrupt(&flash, which);
+        *s = spawn_server(&flash, port);
+    };
+    let mut car = KillBeforeFeedback {
+        inner: RemoteCar::new(host, remote_config(FrameMode::Fd)),
+        feedbacks: 0,
+        at: &[before_feedback],
+        kill: &kill,
+    };
+    let result = experiment::run_with(config, &mut car, &mut |_| {});
+    let stats = car.inner.stats();
+    let mut s = server.lock().unwrap();
+    s.kill9();
+    log.lock().unwrap().push_str(&s.stderr.lock().unwrap());
+    let log = log.lock().unwrap().clone();
+    (result, stats, log)
+}
+
+/// Issue 14, item 4: a car that comes back without its state before it was taught anything is
+/// configured again with the host's snapshot, and the run ends bit-identical.
+#[test]
+fn a_flash_lost_before_any_correction_is_restored_and_the_run_stays_bit_identical() {
+    let config = config(300);
+    let local = experiment::run(&config).unwrap();
+    let (report, stats, log) = run_with_a_lossy_restart(&config, 1, Corrupt::Both);
+    let report = report.unwrap_or_else(|e| panic!("{e:#}\n{log}"));
+    assert!(log.contains("no configured learner"), "{log}");
+    assert_eq!((stats.car_restarts, stats.restores), (1, 1), "{stats:?}");
+    assert_same(&local, &report, "restored after a lost flash");
+}
+
+/// Issue 14, item 4: a car that comes back having lost acknowledged corrections (both pages
+/// unreadable, or the newest) is not driven on silently: the run fails, naming the loss.
+#[test]
+fn a_flash_lost_after_corrections_stops_the_run_naming_the_loss() {
+    let config = config(300);
+    for (which, gone, cause) in [
+        (
+            Corrupt::Both,
+            "3 acknowledged corrections are gone",
+            "unreadable or erased",
+        ),
+        (
+            Corrupt::Newest,
+            "1 acknowledged corrections are gone",
+            "an older state",
+        ),
+    ] {
+        let (report, stats, log) = run_with_a_lossy_restart(&config, 4, which);
+        let e = format!("{:#}", report.expect_err("the run must not go on"));
+        eprintln!("{which:?}: {e}\n{stats:?}");
+        assert!(e.contains("the car lost what it was taught"), "{e}");
+        assert!(
+            e.contains(gone) && e.contains(cause),
+            "{which:?}: {e}\n{log}"
+        );
+        assert!(e.contains("undo 3 of them"), "{e}");
+        assert_eq!(stats.restores, 0);
     }
 }

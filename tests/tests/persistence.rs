@@ -5,7 +5,7 @@ use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, FeatureTable, Learner, LearnerParams, OnlineLearner,
     Round,
 };
-use hil_mock::flash::FlashStore;
+use hil_mock::flash::{FlashStore, Open};
 use protocol::car::Persisted;
 use protocol::delivery::FeedbackReceiver;
 
@@ -38,16 +38,17 @@ fn restart_from_flash_continues_bit_identically() {
     for k in 0..40 {
         teach(&mut straight, k);
         teach(&mut restarted, k);
-        let (mut store, _) = FlashStore::open(&path).unwrap();
+        let (mut store, _) = FlashStore::open(&path, Open::Existing).unwrap();
         store
             .save(&Persisted {
                 session: Some(1),
+                generation: k as u32 + 1,
                 snapshot: restarted.snapshot(),
                 receiver: FeedbackReceiver::new(),
             })
             .unwrap();
         drop(store); // "power off"
-        let (_, restored) = FlashStore::open(&path).unwrap();
+        let (_, restored) = FlashStore::open(&path, Open::Existing).unwrap();
         restarted = restored.unwrap().learner;
     }
     assert_eq!(

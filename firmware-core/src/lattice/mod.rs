@@ -45,9 +45,12 @@ mod params;
 
 pub use params::*;
 
+use nalgebra::{Isometry2, Point2, Translation2, UnitComplex};
+
 use crate::action::{ActionIndex, MAX_ACTIONS};
 
-/// A pose in the car frame.
+/// A pose in the car frame, as the generated tables hold it: position and heading angle. The
+/// geometry is [`Pose::isometry`]'s.
 #[derive(Clone, Copy, PartialEq, Debug, Default)]
 pub struct Pose {
     /// Forward (m).
@@ -56,6 +59,23 @@ pub struct Pose {
     pub y: f32,
     /// Heading (rad, counter-clockwise).
     pub theta: f32,
+}
+
+impl Pose {
+    /// Where the rear axle is.
+    pub fn position(&self) -> Point2<f32> {
+        Point2::new(self.x, self.y)
+    }
+
+    /// The heading as a rotation (cosine and sine from `libm`, the same bits on every target).
+    pub fn rotation(&self) -> UnitComplex<f32> {
+        UnitComplex::from_cos_sin_unchecked(libm::cosf(self.theta), libm::sinf(self.theta))
+    }
+
+    /// The pose as an isometry: from the frame of the car at this pose to the car frame.
+    pub fn isometry(&self) -> Isometry2<f32> {
+        Isometry2::from_parts(Translation2::new(self.x, self.y), self.rotation())
+    }
 }
 
 /// One constant-curvature piece of a trajectory.
@@ -129,6 +149,32 @@ impl Trajectory {
     }
 }
 
+/// The beams whose scan point may come within some distance of one sample point: those in a
+/// window of bearings and in a band of range bins (see [`crate::evaluator`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Reach {
+    /// The window, one bit per beam: beams 0–31, then 32–63.
+    pub(crate) window: [u32; 2],
+    /// The band: range bins `bins[0]..bins[1]` (each [`RANGE_BIN_WIDTH`] wide).
+    pub(crate) bins: [u8; 2],
+}
+
+/// Nearby distinct samples, pruned together by the evaluator: the samples
+/// `samples[0]..samples[1]`, all within `spread` of `centre`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Cluster {
+    /// The centre, `[x, y]` (m).
+    pub(crate) centre: [f32; 2],
+    /// Largest distance of a member from the centre (m), rounded up.
+    pub(crate) spread: f32,
+    /// The members: sample indices `samples[0]..samples[1]`.
+    pub(crate) samples: [u16; 2],
+    /// The trajectories some member belongs to, one bit per action.
+    pub(crate) trajectories: u64,
+    /// The beams that may come within [`OBSTACLE_CLIP`] of a member.
+    pub(crate) clip: Reach,
+}
+
 include!(concat!(env!("OUT_DIR"), "/lattice_tables.rs"));
 
 /// The trajectory of action `a`.
@@ -144,6 +190,10 @@ pub fn mirror_action(a: ActionIndex) -> ActionIndex {
 }
 
 const _: () = assert!(MAX_ACTIONS == 64, "the lattice has 64 trajectories");
+const _: () = assert!(
+    MAX_CLUSTER_SPREAD <= CLUSTER_SPREAD * 1.001,
+    "build.rs halves clusters down to CLUSTER_SPREAD"
+);
 const _: () = assert!(
     (CRUISE_LEVELS * CRUISE_LEVELS + CREEP_LEVELS) == MAX_ACTIONS,
     "cruise and creep families fill the 64 actions"
@@ -171,7 +221,7 @@ mod tests {
             // Consecutive samples are one step of arc length apart (chords of gentle arcs).
             let mut prev = Pose::default();
             for p in &t.poses {
-                let d = ((p.x - prev.x).powi(2) + (p.y - prev.y).powi(2)).sqrt();
+                let d = (p.position() - prev.position()).norm();
                 assert!((d - len / SAMPLES as f32).abs() < 2e-3, "{a}: step {d}");
                 prev = *p;
             }
@@ -236,20 +286,42 @@ mod tests {
                 };
                 let [x, y] = SAMPLE_POINTS[u as usize];
                 assert_eq!([x, y], t.samples()[k]);
-                let cx = p.x + FOOTPRINT_CENTER_OFFSET * libm::cosf(p.theta);
-                let cy = p.y + FOOTPRINT_CENTER_OFFSET * libm::sinf(p.theta);
-                assert!((x - cx).abs() < 1e-5 && (y - cy).abs() < 1e-5, "{a}/{k}");
+                let centre = p
+                    .isometry()
+                    .transform_point(&Point2::new(FOOTPRINT_CENTER_OFFSET, 0.0));
+                assert!((Point2::new(x, y) - centre).norm() < 1e-5, "{a}/{k}");
             }
         }
+        // Every sample knows its trajectories, and belongs to one cluster, within its spread.
+        for (a, t) in all() {
+            let n = t.samples().len();
+            for &u in &SAMPLE_OF[a.get()][..n] {
+                assert!(SAMPLE_TRAJECTORIES[u as usize] >> a.get() & 1 == 1);
+            }
+        }
+        let memberships: u32 = SAMPLE_TRAJECTORIES.iter().map(|m| m.count_ones()).sum();
+        let samples: usize = all().map(|(_, t)| t.samples().len()).sum();
+        assert_eq!(memberships as usize, samples);
+        let mut next = 0;
         let mut pairs = 0;
-        for (w, rho) in SAMPLE_WINDOW.iter().zip(SAMPLE_RHO.iter()) {
-            assert!(*w != 0 && *rho <= MAX_SAMPLE_RHO);
-            // Near samples take the half plane around their bearing (32 or 33 beams).
-            if *rho <= OBSTACLE_CLIP {
-                assert!((32..=34).contains(&w.count_ones()), "{w:#x}");
+        let beams = |r: &Reach| (r.window[0].count_ones() + r.window[1].count_ones()) as usize;
+        for c in &CLUSTERS {
+            let [start, end] = c.samples.map(usize::from);
+            assert!(start == next && start < end, "clusters tile the samples");
+            next = end;
+            let mut trajectories = 0;
+            for u in start..end {
+                let [x, y] = SAMPLE_POINTS[u];
+                let d = libm::hypotf(x - c.centre[0], y - c.centre[1]);
+                assert!(d <= c.spread && c.spread <= MAX_CLUSTER_SPREAD, "{u}");
+                assert!(libm::hypotf(x, y) <= MAX_SAMPLE_RHO);
+                trajectories |= SAMPLE_TRAJECTORIES[u];
             }
-            pairs += w.count_ones() as usize;
+            assert_eq!(trajectories, c.trajectories);
+            assert!(usize::from(c.clip.bins[1]) <= RANGE_BINS);
+            pairs += beams(&c.clip) * (end - start);
         }
+        assert_eq!(next, UNIQUE_SAMPLES);
         assert_eq!(pairs, WINDOW_PAIRS);
     }
 }

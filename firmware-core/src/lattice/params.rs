@@ -50,3 +50,18 @@ pub const SCAN_BEAMS: usize = 64;
 /// Obstacle clearances are clipped at this distance (m): a trajectory that stays this far from
 /// every scan point is as good as any other as far as obstacles go.
 pub const OBSTACLE_CLIP: f32 = 0.5;
+
+/// A sample closer than this to a scan point collides (m): the car's half-width 0.15 m plus a
+/// 0.10 m margin. (Re-exported as [`crate::evaluator::COLLISION_RADIUS`].)
+pub const COLLISION_RADIUS: f32 = 0.25;
+
+/// Width of the range bins the evaluator sorts the beams into each tick (m).
+pub(crate) const RANGE_BIN_WIDTH: f32 = 0.05;
+
+/// Slack added to every "farther than" decision of the evaluator's pruning: 1 mm, far above f32
+/// rounding at these magnitudes, so a pruned beam is provably out of reach.
+pub(crate) const REACH_MARGIN: f32 = 1.0e-3;
+
+/// Largest distance of a sample point from the centre of its cluster (m): the evaluator prunes
+/// the beams of a cluster's samples together (see `build.rs`).
+pub(crate) const CLUSTER_SPREAD: f32 = 0.1;

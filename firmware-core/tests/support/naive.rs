@@ -1,13 +1,34 @@
 //! A naive std reference evaluator: every (trajectory, sample, beam), no windows, no sharing,
 //! Vec-based, written from the formulas of `firmware_core::evaluator`'s documentation. It reads the
 //! lattice's sample points and the beam directions (inputs, not evaluator code) so that its
-//! arithmetic sees the same numbers.
+//! arithmetic sees the same numbers; its constants are its own, written from the documented
+//! feature definitions, and `tests/evaluator.rs` checks that the crate's equal them.
 #![allow(dead_code)]
 
-use firmware_core::evaluator::{
-    COLLISION_RADIUS, PATH_CLIP, RIGHT_SCALE, SEMANTIC_CLIP, beam_direction,
-};
-use firmware_core::lattice::{OBSTACLE_CLIP, SCAN_BEAMS, trajectory};
+use firmware_core::evaluator::beam_direction;
+use firmware_core::lattice::{SCAN_BEAMS, trajectory};
+
+/// A sample collides within this distance of a scan point: the car's half-width 0.15 m plus a
+/// 0.10 m margin ("Collisions" in the evaluator's documentation).
+pub(crate) const COLLISION_RADIUS: f32 = 0.15 + 0.10;
+
+/// Obstacle clearances are clipped at 0.5 m (the features table: `min(d_scan, 0.5 m) / 0.5 m`).
+pub(crate) const OBSTACLE_CLIP: f32 = 0.5;
+
+/// Semantic clearances are clipped at 2 m (`min(d_class, 2 m) / 2 m`).
+pub(crate) const SEMANTIC_CLIP: f32 = 2.0;
+
+/// The path error is clipped at 4 m (`min(|along| + |cross|, 4 m)`).
+pub(crate) const PATH_CLIP: f32 = 4.0;
+
+/// The lateral feature is in decimetres, right positive (`−10 · e.y`).
+pub(crate) const RIGHT_SCALE: f32 = 10.0;
+
+/// Every trajectory counts as ten samples (`k = 10 / n`).
+pub(crate) const COUNTED_SAMPLES: usize = 10;
+
+/// A class with no detected object reads this for every trajectory.
+pub(crate) const ABSENT_CLASS: f32 = 10.0;
 use firmware_core::observation::{Observation, SemanticClass};
 use firmware_core::{ActionIndex, FEATURE_COUNT, Feature, MAX_ACTIONS};
 
@@ -30,7 +51,7 @@ pub(crate) fn evaluate(obs: &Observation) -> Option<NaiveOutput> {
         let t = trajectory(ActionIndex::new(a).unwrap());
         let mut obstacle_sum = 0.0f32;
         let mut class_sum = [0.0f32; 3];
-        let scale = (10 / t.samples().len()) as f32;
+        let scale = (COUNTED_SAMPLES / t.samples().len()) as f32;
         for c in t.samples() {
             // Nearest scan point, brute force.
             let mut d2min = f32::INFINITY;
@@ -60,7 +81,7 @@ pub(crate) fn evaluate(obs: &Observation) -> Option<NaiveOutput> {
             f[class.feature().index()] = if any {
                 class_sum[k] * scale / SEMANTIC_CLIP
             } else {
-                10.0
+                ABSENT_CLASS
             };
         }
         let e = t.end();

@@ -5,8 +5,8 @@
 //! * `serve` (the default, also with no arguments): the car. A [`protocol::car::CarNode`] on
 //!   UART0 speaking slcan (classic CAN frames), with a SysTick millisecond clock and its persisted
 //!   state in RAM; see [`serve`]. QEMU connects UART0 to its first `-serial`, e.g.
-//!   `-serial tcp:127.0.0.1:PORT,server`, and `host-sim run --link slcan+tcp://127.0.0.1:PORT`
-//!   drives it;
+//!   `-serial tcp:127.0.0.1:PORT,server`, and `host-sim run --link slcan+tcp://127.0.0.1:PORT
+//!   --key FILE` drives it;
 //! * `echo`: a diagnostic of the slcan link (every frame is answered with the bus's counters);
 //!
 //! and with the cargo feature `bench` (on by default; see `modes`):
@@ -27,6 +27,11 @@
 //! panic resets the controller (the car would restore its state from flash).
 //! No allocator is linked: the node (and the bench agent) live in `ConstStaticCell`s, built at
 //! compile time and counted by the linker.
+//!
+//! **The key** is built into the image: `build.rs` reads the key file named by `CAR_KEY_FILE`
+//! (`hil_mock keygen FILE`; the hosts use the same file) and refuses to build without one
+//! unless the feature `insecure` asks for the public all-zero key. The node installs it at
+//! start with the epoch [`EPOCH`].
 
 #![no_std]
 #![no_main]
@@ -48,9 +53,32 @@ mod uart;
 use cortex_m_rt::entry;
 use firmware_core::{Learner, ValidLearnerParams};
 use protocol::car::{CarConfig, CarNode};
+use protocol::secure::Key;
 #[cfg(feature = "cli")]
 use semihosting::{println, process};
 use static_cell::ConstStaticCell;
+
+mod key {
+    include!(concat!(env!("OUT_DIR"), "/key.rs"));
+}
+
+/// The car's epoch. This image has no flash and no entropy source under QEMU, so every start is
+/// epoch 1 and a restart forgets everything anyway (its state is in RAM); a car's controller
+/// takes a boot counter kept in flash (incremented and written before it serves) or a number
+/// from its TRNG, so that frames recorded before a restart are refused after it
+/// (docs/protocol.md, threat model).
+pub const EPOCH: u32 = 1;
+
+/// The car's key, as built in.
+pub fn car_key() -> Key {
+    Key::new(key::KEY)
+}
+
+/// The node with the key installed.
+fn keyed(node: &mut CarNode) -> &mut CarNode {
+    node.install_key(&car_key(), EPOCH);
+    node
+}
 
 /// The car node with the default learner (the host configures its own), built at compile time
 /// into .data: never on the stack.
@@ -68,7 +96,13 @@ static AGENT: ConstStaticCell<firmware_core::agent::Agent> = ConstStaticCell::ne
 #[cfg(feature = "cli")]
 #[entry]
 fn main() -> ! {
-    let node = NODE.take();
+    let node = keyed(NODE.take());
+    if car_key().is_insecure() {
+        println!(
+            "WARNING: built with --features insecure: the public all-zero key; anyone who can \
+             send a frame can drive and teach this car"
+        );
+    }
     let args = match semihosting::experimental::env::args::<256>() {
         Ok(a) => a,
         Err(_) => {
@@ -101,7 +135,7 @@ fn main() -> ! {
 #[cfg(not(feature = "cli"))]
 #[entry]
 fn main() -> ! {
-    let node = NODE.take();
+    let node = keyed(NODE.take());
     let _ = serve::serve(node);
     // UART0 or the core peripherals were already taken: nothing to serve with.
     cortex_m::peripheral::SCB::sys_reset()

@@ -1,6 +1,12 @@
 //! The measurement modes (cargo feature `bench`, on by default): fixed workloads for instruction
-//! counting (`bench-act`, `bench-learn`, `bench-node`, and `replay` with feature `replay`) and the
-//! worst-case stack by painting (`stack`).
+//! counting (`bench-act`, `bench-learn`, `bench-node`, `bench-host`, `bench-mac`, and `replay`
+//! with feature `replay`) and the worst-case stack by painting (`stack`).
+//!
+//! The car node only accepts authenticated messages from a configured session, so the node
+//! modes first configure it (the same work for N and for 0 ticks) and seal every message as a
+//! host would ([`HostSecurity`] with the built-in key). `bench-host N` does the host's part
+//! alone (sealing and segmenting the same messages), so that the node's own work per tick is
+//! `(bench-node N − bench-host N) / N`.
 
 use core::convert::Infallible;
 
@@ -11,12 +17,15 @@ use protocol::MAX_MESSAGE_SIZE;
 use protocol::can::{CanBus, CanFrame};
 use protocol::car::CarNode;
 use protocol::isotp::{FrameMode, Segmenter};
-use protocol::message::{DeliveryId, FeedbackMessage, Message, ObservationMessage};
+use protocol::message::{
+    ConfigureMessage, DeliveryId, FeedbackMessage, Message, ObservationMessage,
+};
+use protocol::secure::{Authenticator, Endpoint, Freshness, HostSecurity};
 use protocol::stream::{Direction, Stream};
 use semihosting::{println, process};
 
 use crate::serve::RamStore;
-use crate::{bench, stack};
+use crate::{EPOCH, bench, car_key, stack};
 
 fn learner() -> Learner {
     let params = LearnerParams::default().with_initial([1.0, 2.0, 1.0, 1.0, -3.0, 0.5]);
@@ -43,19 +52,27 @@ impl CanBus for NullBus {
     }
 }
 
-/// Hands `msg` to `node` frame by frame (classic CAN, as on the UART); returns the deepest stack
-/// below the painted mark across the frames, and the deepest from the top of the stack.
+/// The host's side of the node modes: a host in step with a car that just started in
+/// [`EPOCH`] with the built-in key.
+fn host() -> HostSecurity {
+    HostSecurity::assume_fresh_car(&car_key(), EPOCH)
+}
+
+/// Seals `msg` as the host and hands it to `node` frame by frame (classic CAN, as on the UART);
+/// without a node, only seals and segments it. Returns the deepest stack below the painted mark
+/// across the frames, and the deepest from the top of the stack.
 fn to_node(
-    node: &mut CarNode,
+    host: &mut HostSecurity,
+    mut node: Option<&mut CarNode>,
     msg: &Message,
     store: &mut RamStore,
     measure: bool,
 ) -> (usize, usize) {
     let mut buf = [0u8; MAX_MESSAGE_SIZE];
-    let Ok(bytes) = msg.emit(&mut buf) else {
+    let Some(stream) = Stream::for_kind(msg.kind(), Direction::HostToCar) else {
         return (0, 0);
     };
-    let Some(stream) = Stream::for_kind(msg.kind(), Direction::HostToCar) else {
+    let Ok(bytes) = host.seal(msg, stream, &mut buf) else {
         return (0, 0);
     };
     let Ok(frames) = Segmenter::new(stream.id(), bytes, FrameMode::Classic) else {
@@ -63,6 +80,10 @@ fn to_node(
     };
     let (mut below, mut top) = (0, 0);
     for frame in frames {
+        let Some(node) = node.as_deref_mut() else {
+            core::hint::black_box(&frame);
+            continue;
+        };
         let at = if measure { stack::paint() } else { 0 };
         let _ = node.on_frame(&frame, 0, &mut NullBus, store);
         if measure {
@@ -71,6 +92,15 @@ fn to_node(
         }
     }
     (below, top)
+}
+
+/// Configures `node` (session 1) with the measurement learner, as a host would.
+fn configure(host: &mut HostSecurity, node: &mut CarNode, store: &mut RamStore) {
+    let msg = Message::Configure(ConfigureMessage {
+        session: 1,
+        snapshot: learner().snapshot(),
+    });
+    to_node(host, Some(node), &msg, store, false);
 }
 
 fn observation(tick: u32, observation: Observation) -> Message {
@@ -105,16 +135,45 @@ pub fn run<'a>(
             let ok = bench::learn(agent, n);
             println!("bench-learn {n} accepted {ok}");
         }
-        "bench-node" => {
-            // N ticks through the car node: observation frames in, action frames out.
+        "bench-node" | "bench-host" => {
+            // N ticks through the car node: observation frames in, action frames out; or the
+            // host's part alone (sealing, segmenting).
             let n = number(args.next());
             let scenes = bench::scenes();
             let mut store = RamStore::default();
+            let mut host = host();
+            configure(&mut host, node, &mut store);
+            let with_node = mode == "bench-node";
             for t in 0..n {
                 let scene = scenes[t as usize % 3].clone();
-                to_node(node, &observation(t, scene), &mut store, false);
+                let car = with_node.then_some(&mut *node);
+                to_node(&mut host, car, &observation(t, scene), &mut store, false);
             }
-            println!("bench-node {n} actions {}", node.stats().actions);
+            println!("{mode} {n} actions {}", node.stats().actions);
+        }
+        "bench-mac" => {
+            // N truncated AES-128-CMACs of a body of LEN bytes (the MAC covers 2 + LEN + 8).
+            let n = number(args.next());
+            let len = (number(args.next()) as usize).min(MAX_MESSAGE_SIZE);
+            let auth = Authenticator::new(&car_key());
+            let stream = Stream::for_kind(
+                protocol::message::MessageKind::Observation,
+                Direction::HostToCar,
+            );
+            let Some(stream) = stream else {
+                process::exit(2)
+            };
+            let body = [0x5Au8; MAX_MESSAGE_SIZE];
+            let mut sum = 0u32;
+            for i in 0..n {
+                let fv = Freshness {
+                    epoch: EPOCH,
+                    counter: i,
+                };
+                let tag = auth.tag(stream, core::hint::black_box(&body[..len]), fv);
+                sum = sum.wrapping_add(u32::from_le_bytes(tag));
+            }
+            println!("bench-mac {n} {len} checksum {sum}");
         }
         "stack" => {
             // Depth of each workload below its caller's frame, and the worst from the top of the
@@ -135,16 +194,24 @@ pub fn run<'a>(
                 learn = learn.max(stack::depth_below(at));
                 worst = worst.max(stack::high_water());
             }
-            // The car node, frame by frame: observations, then each kind of feedback.
+            // The car node, frame by frame: a configuration, observations, then each kind of
+            // feedback.
             let mut store = RamStore::default();
+            let mut host = host();
             let mut car = 0;
             let mut take = |(below, top): (usize, usize)| {
                 car = car.max(below);
                 worst = worst.max(top);
             };
+            let configure = Message::Configure(ConfigureMessage {
+                session: 1,
+                snapshot: learner().snapshot(),
+            });
+            take(to_node(&mut host, Some(node), &configure, &mut store, true));
             for (t, scene) in scenes.iter().enumerate() {
                 take(to_node(
-                    node,
+                    &mut host,
+                    Some(node),
                     &observation(t as u32, scene.clone()),
                     &mut store,
                     true,
@@ -152,11 +219,23 @@ pub fn run<'a>(
             }
             for i in 0..3u8 {
                 let fb = bench::feedback(i as u32);
-                take(to_node(node, &feedback(i, 2, fb), &mut store, true));
+                take(to_node(
+                    &mut host,
+                    Some(node),
+                    &feedback(i, 2, fb),
+                    &mut store,
+                    true,
+                ));
             }
             let a = ActionIndex::new(5).unwrap_or(ActionIndex::FIRST);
             let fb = Feedback::Action(ActionFeedback { action: a });
-            take(to_node(node, &feedback(3, 1, fb), &mut store, true));
+            take(to_node(
+                &mut host,
+                Some(node),
+                &feedback(3, 1, fb),
+                &mut store,
+                true,
+            ));
             println!(
                 "stack act {act} learn {learn} car-node {car} worst {worst} region {}",
                 stack::region()
@@ -182,7 +261,8 @@ pub fn run<'a>(
         other => {
             println!(
                 "error: unknown mode {other:?}; expected serve, echo, bench-act N [SCENE], \
-                 bench-learn N, bench-node N, stack, replay-count or replay I do|skip"
+                 bench-learn N, bench-node N, bench-host N, bench-mac N LEN, stack, \
+                 replay-count or replay I do|skip"
             );
             process::exit(2)
         }

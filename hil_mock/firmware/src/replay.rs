@@ -50,8 +50,8 @@ pub fn replay(agent: &mut Agent, last: usize, run_last: bool) -> (Last, u32) {
     for (i, msg) in items().enumerate().take(last + 1) {
         let run = i < last || run_last;
         what = match msg {
-            Message::Weights(snapshot) => {
-                if run && let Ok(learner) = Learner::restore(&snapshot) {
+            Message::Weights(report) => {
+                if run && let Ok(learner) = Learner::restore(&report.snapshot) {
                     agent.set_learner(learner);
                     agent.forget_ticks();
                 }

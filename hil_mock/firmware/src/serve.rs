@@ -5,8 +5,9 @@
 //! (stamped with the clock), then calls [`CarNode::poll`] for the watchdog and the reassembly
 //! timeouts, and starts again; it never blocks on the UART and never ends.
 //!
-//! **Persistence.** [`RamStore`] keeps the last [`Persisted`] state in RAM: enough for QEMU,
-//! where a restart loses everything anyway. The car's controller writes it to flash instead, in
+//! **Persistence.** [`RamStore`] keeps the last [`Persisted`] state (session, generation,
+//! learner, dedupe windows) in RAM: enough for QEMU, where a restart loses everything anyway
+//! (the host's welcome then says the car holds no configured learner). The car's controller writes it to flash instead, in
 //! the two-page scheme `hil_mock::flash` emulates (CRC and generation counter, so a torn write
 //! never loses the last good state) and starts with [`CarNode::restore`] from what it reads
 //! back. The node persists before it acknowledges, so only the store changes.

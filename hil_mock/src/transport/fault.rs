@@ -241,6 +241,10 @@ impl<L: Link> Link for FaultyLink<L> {
         }
     }
 
+    fn authenticated(&mut self, fresh: bool) {
+        self.inner.authenticated(fresh)
+    }
+
     fn describe(&self) -> String {
         format!("{} with faults {:?}", self.inner.describe(), self.config)
     }

@@ -6,9 +6,9 @@
 //! | address | transport |
 //! |---|---|
 //! | `udp://127.0.0.1:PORT` | [`udp::UdpLink`]: CAN frames in cannelloni's UDP packet format (connects to `PORT`) |
-//! | `udp-listen://127.0.0.1:PORT` | the same, listening on `PORT`, answering whoever spoke last |
+//! | `udp-listen://127.0.0.1:PORT` | the same, listening on `PORT`, answering only the sender of the last authenticated message |
 //! | `slcan+tcp://127.0.0.1:PORT` | [`slcan::SlcanLink`] over TCP (connects; QEMU's `-serial tcp:…,server` is such a server) |
-//! | `slcan+tcp-listen://127.0.0.1:PORT` | the same, accepting one connection |
+//! | `slcan+tcp-listen://127.0.0.1:PORT` | [`slcan::SlcanListener`]: accepts connections one after another, one at a time, dropping one idle (no authenticated message) for its idle timeout |
 //! | `slcan+serial:///dev/ttyACM0?baud=115200` | slcan over a serial device (a USB-CAN adapter) |
 //! | `socketcan://can0` | Linux SocketCAN (cargo feature `socketcan`) |
 //!
@@ -98,6 +98,14 @@ pub trait Link: Send {
 
     /// A short description for logs ("udp 127.0.0.1:4000", ...).
     fn describe(&self) -> String;
+
+    /// The frame received last completed an authenticated message
+    /// (`protocol::can::CanBus::authenticated`): a transport with peers answers its sender, and
+    /// if the message was `fresh` trusts it from now on (UDP answers it; a TCP listener keeps
+    /// its connection). Nothing by default.
+    fn authenticated(&mut self, fresh: bool) {
+        let _ = fresh;
+    }
 }
 
 impl<L: Link + ?Sized> Link for Box<L> {
@@ -109,6 +117,9 @@ impl<L: Link + ?Sized> Link for Box<L> {
     }
     fn describe(&self) -> String {
         (**self).describe()
+    }
+    fn authenticated(&mut self, fresh: bool) {
+        (**self).authenticated(fresh)
     }
 }
 
@@ -217,14 +228,17 @@ impl fmt::Display for LinkAddress {
 }
 
 impl LinkAddress {
-    /// Opens the link. Listening addresses wait up to `accept_timeout` for their peer's first
-    /// contact (a TCP connection; UDP needs none and returns at once).
-    pub fn open(&self, accept_timeout: Duration) -> Result<Box<dyn Link>, LinkError> {
+    /// Opens the link. A connecting TCP address waits up to `timeout` for its peer to listen;
+    /// listening addresses return at once (a listening slcan link accepts connections as they
+    /// come, with [`slcan::DEFAULT_IDLE_TIMEOUT`]).
+    pub fn open(&self, timeout: Duration) -> Result<Box<dyn Link>, LinkError> {
         Ok(match self {
             Self::Udp(a) => Box::new(udp::UdpLink::connect(*a)?),
             Self::UdpListen(a) => Box::new(udp::UdpLink::listen(*a)?),
-            Self::SlcanTcp(a) => Box::new(slcan::SlcanLink::connect_tcp(*a, accept_timeout)?),
-            Self::SlcanTcpListen(a) => Box::new(slcan::SlcanLink::accept_tcp(*a, accept_timeout)?),
+            Self::SlcanTcp(a) => Box::new(slcan::SlcanLink::connect_tcp(*a, timeout)?),
+            Self::SlcanTcpListen(a) => {
+                Box::new(slcan::SlcanListener::bind(*a, slcan::DEFAULT_IDLE_TIMEOUT)?)
+            }
             Self::SlcanSerial { path, baud } => {
                 Box::new(slcan::SlcanLink::open_serial(path, *baud)?)
             }

@@ -117,6 +117,12 @@ impl Link for ReconnectingLink {
         }
     }
 
+    fn authenticated(&mut self, fresh: bool) {
+        if let Some(link) = self.inner.as_mut() {
+            link.authenticated(fresh);
+        }
+    }
+
     fn describe(&self) -> String {
         let state = match (&self.inner, &self.last_error) {
             (Some(link), _) => link.describe(),

@@ -36,10 +36,14 @@ pub fn format_frame(frame: &CanFrame) -> String {
 }
 
 /// Parses candump's `ID#DATA` / `ID##FDATA` notation. Remote frames (`ID#R`) are refused.
+/// Total: any text gives a frame or a message saying what is wrong, never a panic.
 pub fn parse_frame(s: &str) -> Result<CanFrame, String> {
     let (id, rest) = s
         .split_once('#')
         .ok_or_else(|| format!("no '#' in {s:?}"))?;
+    if id.is_empty() || !id.bytes().all(|b| b.is_ascii_hexdigit()) {
+        return Err(format!("bad id {id:?}: not hexadecimal digits"));
+    }
     let raw = u32::from_str_radix(id, 16).map_err(|_| format!("bad id {id:?}"))?;
     let can_id = match id.len() {
         3 => CanId::standard(raw as u16),
@@ -60,6 +64,11 @@ pub fn parse_frame(s: &str) -> Result<CanFrame, String> {
     };
     if hex.starts_with('R') {
         return Err("remote frames are not supported".into());
+    }
+    if let Some(bad) = hex.chars().find(|c| !c.is_ascii_hexdigit()) {
+        return Err(format!(
+            "bad data {hex:?}: {bad:?} is not a hexadecimal digit"
+        ));
     }
     if hex.len() % 2 != 0 {
         return Err(format!("odd number of hex digits in {hex:?}"));
@@ -98,37 +107,44 @@ pub struct Logged {
     pub frame: CanFrame,
 }
 
+/// Parses one line of a candump log, `(TIME) IFACE FRAME`. Total: any text gives a frame or a
+/// message saying what is wrong, never a panic.
+pub fn parse_line(line: &str) -> Result<Logged, String> {
+    let mut parts = line.split_whitespace();
+    let (Some(time), Some(iface), Some(frame)) = (parts.next(), parts.next(), parts.next()) else {
+        return Err("expected '(TIME) IFACE FRAME'".into());
+    };
+    let time: f64 = time
+        .strip_prefix('(')
+        .and_then(|t| t.strip_suffix(')'))
+        .and_then(|t| t.parse().ok())
+        .filter(|t: &f64| t.is_finite())
+        .ok_or_else(|| format!("bad timestamp {time:?}"))?;
+    let frame = parse_frame(frame)?;
+    Ok(Logged {
+        time,
+        iface: iface.to_string(),
+        frame,
+    })
+}
+
 /// Reads a candump log. Blank lines and lines starting with `#` are skipped; any other line that
-/// does not parse is an error naming the file and the line.
+/// does not parse (bytes that are not UTF-8 included) is an error naming the file and the line.
 pub fn read_log(path: &Path) -> Result<Vec<Logged>, LinkError> {
     let file =
         File::open(path).map_err(|e| LinkError::io(format!("open {}", path.display()), e))?;
     let mut out = Vec::new();
-    for (n, line) in BufReader::new(file).lines().enumerate() {
+    for (n, line) in BufReader::new(file).split(b'\n').enumerate() {
         let line = line.map_err(|e| LinkError::io(format!("read {}", path.display()), e))?;
+        let bad = |d: String| {
+            LinkError::malformed("candump", format!("{}:{}: {d}", path.display(), n + 1))
+        };
+        let line = std::str::from_utf8(&line).map_err(|e| bad(format!("not UTF-8 text: {e}")))?;
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
-        let bad = |d: String| {
-            LinkError::malformed("candump", format!("{}:{}: {d}", path.display(), n + 1))
-        };
-        let mut parts = line.split_whitespace();
-        let (Some(time), Some(iface), Some(frame)) = (parts.next(), parts.next(), parts.next())
-        else {
-            return Err(bad("expected '(TIME) IFACE FRAME'".into()));
-        };
-        let time: f64 = time
-            .strip_prefix('(')
-            .and_then(|t| t.strip_suffix(')'))
-            .and_then(|t| t.parse().ok())
-            .ok_or_else(|| bad(format!("bad timestamp {time:?}")))?;
-        let frame = parse_frame(frame).map_err(bad)?;
-        out.push(Logged {
-            time,
-            iface: iface.to_string(),
-            frame,
-        });
+        out.push(parse_line(line).map_err(bad)?);
     }
     Ok(out)
 }
@@ -140,7 +156,12 @@ pub fn replay(log: &[Logged], link: &mut dyn Link, realtime: bool) -> Result<usi
     let t0 = log.first().map(|l| l.time).unwrap_or(0.0);
     for l in log {
         if realtime {
-            let at = Duration::from_secs_f64((l.time - t0).max(0.0));
+            let at = Duration::try_from_secs_f64((l.time - t0).max(0.0)).map_err(|_| {
+                LinkError::malformed(
+                    "candump",
+                    format!("timestamp {} is too far from the first, {t0}", l.time),
+                )
+            })?;
             if let Some(wait) = at.checked_sub(start.elapsed()) {
                 std::thread::sleep(wait);
             }
@@ -194,6 +215,10 @@ impl<L: Link> Link for RecordingLink<L> {
         Ok(got)
     }
 
+    fn authenticated(&mut self, fresh: bool) {
+        self.inner.authenticated(fresh)
+    }
+
     fn describe(&self) -> String {
         format!(
             "{} recorded to {}",
@@ -234,6 +259,13 @@ mod tests {
             "123##",
             "123#GG",
             "123#000000000000000000",
+            // Issue 14: a non-ASCII byte in the data used to panic (slicing inside a character).
+            "123#0é",
+            "123#é0",
+            "123##1é",
+            "+12#00",
+            "12 #00",
+            "123#+1",
         ] {
             assert!(parse_frame(bad).is_err(), "{bad}");
         }
@@ -261,5 +293,11 @@ mod tests {
         std::fs::write(&path, "(1.0) can0 123#00\nnot a line\n").unwrap();
         let e = read_log(&path).unwrap_err().to_string();
         assert!(e.contains("bus.log:2"), "{e}");
+        std::fs::write(&path, "(1.0) can0 123#0\u{e9}\n").unwrap();
+        let e = read_log(&path).unwrap_err().to_string();
+        assert!(e.contains("bus.log:1") && e.contains("hexadecimal"), "{e}");
+        std::fs::write(&path, b"(1.0) can0 123#00\n(2.0) can0 123#\xff\xfe\n").unwrap();
+        let e = read_log(&path).unwrap_err().to_string();
+        assert!(e.contains("bus.log:2") && e.contains("UTF-8"), "{e}");
     }
 }

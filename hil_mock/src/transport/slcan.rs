@@ -10,10 +10,16 @@
 //!   command it does not know.
 //!
 //! Both roles send and receive frames as `t`/`T`/`b`/`B` lines.
+//!
+//! A car listening on TCP ([`SlcanListener`], `slcan+tcp-listen://`) serves connections one
+//! after another, one at a time. A connection that brings no authenticated message with the
+//! highest counter yet for the idle timeout is closed and the next one waiting is accepted, so a process that connects
+//! first and stays (silent, or sending garbage or replays) cannot lock the host out; when a
+//! connection ends, the car serves the next.
 
 use std::collections::VecDeque;
 use std::io::{ErrorKind, Read, Write};
-use std::net::{SocketAddrV4, TcpListener, TcpStream};
+use std::net::{SocketAddr, SocketAddrV4, TcpListener, TcpStream};
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -133,6 +139,11 @@ impl SlcanLink<Box<dyn Stream>> {
                 Err(e) => return Err(LinkError::io(format!("accept on {local}"), e)),
             }
         };
+        Self::device(stream, local)
+    }
+
+    /// The device's side of an accepted connection (blocking reads with timeouts, no Nagle).
+    fn device(stream: TcpStream, local: SocketAddr) -> Result<Self, LinkError> {
         stream
             .set_nonblocking(false)
             .map_err(|e| LinkError::io("stream blocking", e))?;
@@ -292,6 +303,162 @@ impl<S: Stream> Link for SlcanLink<S> {
     }
 }
 
+/// The default idle timeout of a listening car: a connection that brought no authenticated
+/// message for this long is closed.
+pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(10);
+
+/// slcan over TCP as the listening device (the car): connections are served one after another,
+/// one at a time (see the module documentation).
+pub struct SlcanListener {
+    listener: TcpListener,
+    local: SocketAddr,
+    current: Option<SlcanLink>,
+    idle_timeout: Duration,
+    /// When the current connection was accepted or last brought an authenticated message.
+    trusted_at: Instant,
+    accepted: u64,
+    idle_closed: u64,
+}
+
+impl std::fmt::Debug for SlcanListener {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.describe())
+    }
+}
+
+impl SlcanListener {
+    /// Binds `addr` (127.0.0.1).
+    pub fn bind(addr: SocketAddrV4, idle_timeout: Duration) -> Result<Self, LinkError> {
+        let listener =
+            TcpListener::bind(addr).map_err(|e| LinkError::io(format!("bind {addr}"), e))?;
+        Self::from_listener(listener, idle_timeout)
+    }
+
+    /// Serves an already bound listener.
+    pub fn from_listener(listener: TcpListener, idle_timeout: Duration) -> Result<Self, LinkError> {
+        let local = listener
+            .local_addr()
+            .map_err(|e| LinkError::io("listener address", e))?;
+        listener
+            .set_nonblocking(true)
+            .map_err(|e| LinkError::io("listener nonblocking", e))?;
+        Ok(Self {
+            listener,
+            local,
+            current: None,
+            idle_timeout,
+            trusted_at: Instant::now(),
+            accepted: 0,
+            idle_closed: 0,
+        })
+    }
+
+    /// The address listened on.
+    pub fn local_addr(&self) -> SocketAddr {
+        self.local
+    }
+
+    /// Connections accepted so far.
+    pub fn accepted(&self) -> u64 {
+        self.accepted
+    }
+
+    /// Connections closed because they brought no authenticated message in time.
+    pub fn idle_closed(&self) -> u64 {
+        self.idle_closed
+    }
+
+    /// Whether a connection is being served.
+    pub fn connected(&self) -> bool {
+        self.current.is_some()
+    }
+
+    /// Accepts the next waiting connection, if any.
+    fn accept_next(&mut self) -> Result<(), LinkError> {
+        match self.listener.accept() {
+            Ok((stream, _)) => {
+                self.current = Some(SlcanLink::device(stream, self.local)?);
+                self.accepted += 1;
+                self.trusted_at = Instant::now();
+                Ok(())
+            }
+            Err(e) if e.kind() == ErrorKind::WouldBlock => Ok(()),
+            Err(e) => Err(LinkError::io(format!("accept on {}", self.local), e)),
+        }
+    }
+}
+
+impl Link for SlcanListener {
+    fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        let Some(link) = self.current.as_mut() else {
+            // Nobody connected: the frame is lost, as on a bus without a listener.
+            return Ok(());
+        };
+        match link.send(frame) {
+            Err(LinkError::Closed(_)) | Err(LinkError::Io { .. }) => {
+                self.current = None;
+                Ok(())
+            }
+            r => r,
+        }
+    }
+
+    fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if self.current.is_some() && self.trusted_at.elapsed() >= self.idle_timeout {
+                self.current = None;
+                self.idle_closed += 1;
+            }
+            if self.current.is_none() {
+                self.accept_next()?;
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            let Some(link) = self.current.as_mut() else {
+                if left.is_zero() {
+                    return Ok(None);
+                }
+                std::thread::sleep(left.min(Duration::from_millis(5)));
+                continue;
+            };
+            // Wait no longer than the connection may stay idle.
+            let wait = left.min(
+                self.idle_timeout
+                    .saturating_sub(self.trusted_at.elapsed())
+                    .max(Duration::from_millis(1)),
+            );
+            match link.recv(wait) {
+                Ok(Some(f)) => return Ok(Some(f)),
+                Ok(None) if Instant::now() >= deadline => return Ok(None),
+                Ok(None) => {}
+                Err(LinkError::Closed(_)) | Err(LinkError::Io { .. }) => self.current = None,
+                Err(e) => return Err(e),
+            }
+        }
+    }
+
+    fn describe(&self) -> String {
+        format!(
+            "slcan/tcp listening on {} ({} connections accepted, {} closed idle{})",
+            self.local,
+            self.accepted,
+            self.idle_closed,
+            if self.current.is_some() {
+                ", one connected"
+            } else {
+                ""
+            }
+        )
+    }
+
+    fn authenticated(&mut self, fresh: bool) {
+        // A replayed hello must not keep a squatter's connection alive.
+        if fresh {
+            self.trusted_at = Instant::now();
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -405,5 +572,43 @@ mod tests {
         )
         .unwrap();
         assert_eq!(h.stream.output, b"C\rS8\rO\r");
+    }
+
+    #[test]
+    fn the_listener_serves_connections_one_after_another_and_drops_idle_ones() {
+        let mut car = SlcanListener::bind(
+            SocketAddrV4::new(std::net::Ipv4Addr::LOCALHOST, 0),
+            Duration::from_millis(300),
+        )
+        .unwrap();
+        let SocketAddr::V4(addr) = car.local_addr() else {
+            unreachable!()
+        };
+        let frame = |b| CanFrame::new(CanId::standard(0x104).unwrap(), &[b]).unwrap();
+        // A squatter connects first and says nothing; the host connects after it.
+        let squatter = TcpStream::connect(addr).unwrap();
+        assert_eq!(car.recv(Duration::from_millis(20)).unwrap(), None);
+        assert!(car.connected());
+        let mut host = SlcanLink::connect_tcp(addr, Duration::from_secs(5)).unwrap();
+        host.send(&frame(1)).unwrap();
+        // Nothing authenticated from the squatter: after the idle timeout the host is served.
+        let got = car.recv(Duration::from_secs(5)).unwrap();
+        assert_eq!(got, Some(frame(1)));
+        assert_eq!((car.accepted(), car.idle_closed()), (2, 1));
+        car.authenticated(true);
+        car.send(&frame(2)).unwrap();
+        assert_eq!(host.recv(Duration::from_secs(5)).unwrap(), Some(frame(2)));
+        drop(squatter);
+        // The host leaves: the car serves the next connection.
+        drop(host);
+        let mut next = SlcanLink::connect_tcp(addr, Duration::from_secs(5)).unwrap();
+        next.send(&frame(3)).unwrap();
+        assert_eq!(car.recv(Duration::from_secs(5)).unwrap(), Some(frame(3)));
+        assert_eq!(car.accepted(), 3);
+        assert!(
+            car.describe().contains("3 connections accepted"),
+            "{}",
+            car.describe()
+        );
     }
 }

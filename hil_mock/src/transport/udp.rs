@@ -17,6 +17,15 @@
 //!
 //! This link sends one frame per packet (no batching delay). Remote and error frames received are
 //! skipped; a packet that is truncated or inconsistent is reported as malformed and dropped whole.
+//!
+//! **Whom a listening link answers.** Anyone on 127.0.0.1 can send it a datagram. A listening
+//! link answers only the sender of the last packet that completed an authenticated message with
+//! the highest counter yet ([`Link::authenticated`], called by the car's node after the MAC and
+//! freshness checks): garbage, forgeries and replays from another port never redirect its
+//! answers, nor does a genuine message that was lost and is replayed late by another node. The
+//! answer to a hello (authenticated but replayable) or to such a late message goes to its
+//! sender alone, without trusting it. Before the first authenticated message it answers nobody (its frames are
+//! dropped, as on a bus without a listener).
 
 use std::collections::VecDeque;
 use std::io::ErrorKind;
@@ -150,10 +159,20 @@ const NAP: Duration = Duration::from_micros(50);
 #[derive(Debug)]
 pub struct UdpLink {
     socket: UdpSocket,
+    /// Where frames go: the remote (connected), or the sender of the last authenticated, fresh
+    /// message (listening).
     peer: Option<SocketAddr>,
+    /// Listening: where the answer to the frame received last goes, when it is not `peer` (the
+    /// sender of a hello); cleared by the next receive.
+    answer_to: Option<SocketAddr>,
     connected: bool,
     seq: u8,
-    pending: VecDeque<CanFrame>,
+    /// Received frames with the address they came from.
+    pending: VecDeque<(CanFrame, Option<SocketAddr>)>,
+    /// The sender of the frame `recv` returned last.
+    last_from: Option<SocketAddr>,
+    /// Frames not sent because no authenticated peer has spoken yet (listening).
+    unanswered: u64,
     buf: Vec<u8>,
 }
 
@@ -168,7 +187,7 @@ impl UdpLink {
         Ok(Self::new(socket, Some(SocketAddr::V4(remote)), true))
     }
 
-    /// Binds `local` (on 127.0.0.1) and answers whoever sent the last packet.
+    /// Binds `local` (on 127.0.0.1) and answers the sender of the last authenticated message.
     pub fn listen(local: SocketAddrV4) -> Result<Self, LinkError> {
         let socket =
             UdpSocket::bind(local).map_err(|e| LinkError::io(format!("bind {local}"), e))?;
@@ -182,8 +201,21 @@ impl UdpLink {
             connected,
             seq: 0,
             pending: VecDeque::new(),
+            answer_to: None,
+            last_from: None,
+            unanswered: 0,
             buf: vec![0; MAX_DATAGRAM],
         }
+    }
+
+    /// The address answers go to (listening: the sender of the last authenticated message).
+    pub fn peer(&self) -> Option<SocketAddr> {
+        self.peer
+    }
+
+    /// Frames a listening link dropped because no authenticated peer had spoken yet.
+    pub fn unanswered(&self) -> u64 {
+        self.unanswered
     }
 
     /// The local address (the port to give the peer when listening on port 0).
@@ -202,18 +234,21 @@ impl Link for UdpLink {
         let result = if self.connected {
             self.socket.send(&packet)
         } else {
-            let peer = self
-                .peer
-                .ok_or_else(|| LinkError::Closed("no peer has spoken yet".into()))?;
+            let Some(peer) = self.answer_to.or(self.peer) else {
+                self.unanswered += 1;
+                return Ok(());
+            };
             self.socket.send_to(&packet, peer)
         };
         result.map(|_| ()).map_err(|e| LinkError::io("udp send", e))
     }
 
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
+        self.answer_to = None;
         let deadline = Instant::now() + timeout;
         loop {
-            if let Some(f) = self.pending.pop_front() {
+            if let Some((f, from)) = self.pending.pop_front() {
+                self.last_from = from;
                 return Ok(Some(f));
             }
             let left = deadline.saturating_duration_since(Instant::now());
@@ -242,12 +277,9 @@ impl Link for UdpLink {
             };
             match got {
                 Ok((n, from)) => {
-                    if let Some(a) = from {
-                        self.peer = Some(a);
-                    }
                     let mut frames = Vec::new();
                     decode_packet(&self.buf[..n], &mut frames)?;
-                    self.pending.extend(frames);
+                    self.pending.extend(frames.into_iter().map(|f| (f, from)));
                 }
                 Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
                     let now = Instant::now();
@@ -266,6 +298,17 @@ impl Link for UdpLink {
                 }
                 Err(e) => return Err(LinkError::io("udp receive", e)),
             }
+        }
+    }
+
+    fn authenticated(&mut self, fresh: bool) {
+        if self.connected || self.last_from.is_none() {
+            return;
+        }
+        if fresh {
+            self.peer = self.last_from;
+        } else {
+            self.answer_to = self.last_from;
         }
     }
 
@@ -389,16 +432,17 @@ mod tests {
         let port = server.local_addr().unwrap().port();
         let mut client =
             UdpLink::connect(SocketAddrV4::new(std::net::Ipv4Addr::LOCALHOST, port)).unwrap();
-        assert!(
-            matches!(server.send(&frames()[0]), Err(LinkError::Closed(_))),
-            "no peer yet"
-        );
+        // No authenticated peer yet: nothing goes out.
+        server.send(&frames()[0]).unwrap();
+        assert_eq!(server.unanswered(), 1);
         for f in frames() {
             client.send(&f).unwrap();
         }
         for f in frames() {
             assert_eq!(server.recv(Duration::from_secs(2)).unwrap(), Some(f));
         }
+        assert_eq!(server.peer(), None, "receiving alone trusts nobody");
+        server.authenticated(true);
         server.send(&frames()[1]).unwrap();
         assert_eq!(
             client.recv(Duration::from_secs(2)).unwrap(),
@@ -406,5 +450,35 @@ mod tests {
         );
         assert_eq!(client.recv(Duration::from_millis(5)).unwrap(), None);
         assert_eq!(client.recv(Duration::ZERO).unwrap(), None);
+    }
+
+    #[test]
+    fn a_stranger_does_not_redirect_the_answers() {
+        let mut server = UdpLink::listen("127.0.0.1:0".parse().unwrap()).unwrap();
+        let port = server.local_addr().unwrap().port();
+        let addr = SocketAddrV4::new(std::net::Ipv4Addr::LOCALHOST, port);
+        let mut host = UdpLink::connect(addr).unwrap();
+        let mut stranger = UdpLink::connect(addr).unwrap();
+        host.send(&frames()[0]).unwrap();
+        assert!(server.recv(Duration::from_secs(2)).unwrap().is_some());
+        server.authenticated(true);
+        // The stranger's packet arrives (garbage or a forgery: never authenticated).
+        stranger.send(&frames()[1]).unwrap();
+        assert!(server.recv(Duration::from_secs(2)).unwrap().is_some());
+        server.send(&frames()[2]).unwrap();
+        assert_eq!(
+            host.recv(Duration::from_secs(2)).unwrap(),
+            Some(frames()[2])
+        );
+        assert_eq!(stranger.recv(Duration::from_millis(20)).unwrap(), None);
+        // A malformed datagram does not either.
+        let raw = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        raw.send_to(b"\x02\x00", addr).unwrap();
+        assert!(server.recv(Duration::from_secs(2)).is_err());
+        server.send(&frames()[0]).unwrap();
+        assert_eq!(
+            host.recv(Duration::from_secs(2)).unwrap(),
+            Some(frames()[0])
+        );
     }
 }

@@ -1,24 +1,41 @@
 //! The learner on the car's controller: [`RemoteCar`], a [`CarLink`] over a CAN link.
 //!
-//! Every call is a stop-and-wait exchange: send the request, wait up to
-//! [`RemoteConfig::try_timeout`] for its answer, send it again, until the answer comes or
+//! Every message is authenticated with the car's key ([`RemoteConfig::key`]) and fresh
+//! (`protocol::secure`): the host first says hello and takes the car's epoch, counters and
+//! status from its welcome. Every call is then a stop-and-wait exchange: send the request, wait
+//! up to [`RemoteConfig::try_timeout`] for its answer, send it again, until the answer comes or
 //! [`RemoteConfig::deadline`] has passed since the call began (long enough to outlive a restart
-//! of the car's controller). Answers to other requests (late copies, duplicates) are ignored, so
-//! lost, corrupted, duplicated, reordered or delayed frames cost time, never a different result:
-//! a run over a link gives the same records, bit for bit, as a run in process.
+//! of the car's controller). Answers to other requests (late copies, duplicates) are ignored,
+//! and messages that fail authentication or freshness are counted and dropped, so lost,
+//! corrupted, duplicated, reordered, delayed, forged or replayed frames cost time, never a
+//! different result: a run over a link gives the same records, bit for bit, as a run in
+//! process. The time is the milliseconds since the [`RemoteCar`] was made, passed to the
+//! protocol's state machines ([`FeedbackSender`]).
 //!
 //! | call | sends | until |
 //! |---|---|---|
-//! | `restore(snapshot)` | configure (session `s`, snapshot) | a weights report equal to `snapshot` (else: another session) |
-//! | `act(t, obs)` | observation of `t` | the action command of `t` (error `observation` → error) |
-//! | `feedback(t, fb)` | feedback `(s, seq)` | its ack; nack `unknown tick` → the observation of `t` again, then the feedback with a new `seq`; nack `rejected` → error |
+//! | `restore(snapshot)` | hello (if not welcomed yet), configure (the session after the car's, the snapshot) | a weights report of that session equal to `snapshot` |
+//! | `act(t, obs)` | observation of `t` | the answer of `t`: a track, or a stop because every trajectory collides (error `observation` → error) |
+//! | `feedback(t, fb)` | feedback `(s, seq)` through a [`FeedbackSender`] | its ack; nack `unknown tick` → the observation of `t` again, then the feedback with a new `seq`; other nacks → error |
 //! | `snapshot()` | weights request | a weights report |
 //!
-//! The car answers an observation with a stop whose mask is empty in two cases: every trajectory
-//! collides, or its watchdog fired (the observation or its answer took more than its watchdog
-//! time to get through). The two are the same bytes; [`RemoteCar`] tells them apart by evaluating
-//! the observation itself when a stop comes (the same `firmware-core` evaluator, so the same mask): a stop for an
-//! observation that leaves some trajectory free is the watchdog's, and is ignored.
+//! The car says why it stops ([`protocol::message::StopReason`]): a stop for its watchdog, a reset or a new
+//! configuration answers no observation and is ignored; the host evaluates nothing itself.
+//!
+//! # Restarts of the car
+//!
+//! A restarted car takes a new epoch, so it refuses everything the host sends in the old one
+//! and nothing it sends verifies under the old one: after [`HELLO_AFTER`] tries without an
+//! authenticated answer, the host says hello again, and the welcome says what the car holds.
+//! The host keeps the last snapshot the car reported (the configuration's, or a weights
+//! report's) and counts the feedback the car acknowledged since:
+//!
+//! * the car holds the session and generation the host expects: the run goes on (a feedback in
+//!   flight is acknowledged from the car's restored dedupe window, never applied twice);
+//! * it holds less, and the host's snapshot is the one the car should hold: the host configures
+//!   it again with that snapshot, and the run goes on, bit-identical;
+//! * it holds less, and the host's snapshot is older: the call fails, naming what was lost, and
+//!   `host-sim run` exits non-zero. Never a silent fresh learner.
 //!
 //! ```
 //! use firmware_core::{Learner, LearnerParams};
@@ -28,16 +45,19 @@
 //! use host_sim::teach::experiment::CarLink;
 //! use host_sim::teach::remote::{RemoteCar, RemoteConfig};
 //! use protocol::car::CarConfig;
+//! use protocol::secure::Key;
 //! use std::sync::{Arc, atomic::{AtomicBool, Ordering}};
 //!
+//! let key = Key::new([0x5A; 16]);
 //! let (host, mut car) = MemoryLink::pair();
 //! let stop = Arc::new(AtomicBool::new(false));
 //! let flag = stop.clone();
+//! let car_key = key.clone();
 //! let server = std::thread::spawn(move || {
-//!     let mut s = Server::in_memory(CarConfig::default());
+//!     let mut s = Server::in_memory(CarConfig::default(), &car_key, 77);
 //!     s.run(&mut car, &flag)
 //! });
-//! let mut remote = RemoteCar::new(host, RemoteConfig::default());
+//! let mut remote = RemoteCar::new(host, RemoteConfig::new(key));
 //! let learner = Learner::new(LearnerParams::default().check().unwrap());
 //! remote.restore(&learner.snapshot()).unwrap();
 //! let d = remote.act(0, &Observation::open_space()).unwrap();
@@ -51,22 +71,30 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Result, anyhow, bail};
 use firmware_core::agent::Decision;
-use firmware_core::evaluator::Evaluator;
 use firmware_core::observation::Observation;
-use firmware_core::{FeatureTable, Feedback, LearnerSnapshot};
+use firmware_core::{Feedback, LearnerSnapshot};
 use hil_mock::server::LinkBus;
 use hil_mock::transport::{Link, LinkError};
+use protocol::delivery::{FeedbackSender, RetryPolicy, SenderEvent};
 use protocol::isotp::FrameMode;
-use protocol::link::{Inbox, Received, transmit};
+use protocol::link::{Inbox, Received, TransmitError, transmit};
 use protocol::message::{
-    ConfigureMessage, DeliveryId, ErrorCode, FeedbackMessage, Message, NackCode, ObservationMessage,
+    CarStatus, ConfigureMessage, ErrorCode, Message, NackCode, ObservationMessage, Welcome,
 };
+use protocol::secure::{HostSecurity, Key, RefusalStats};
 use protocol::stream::Direction;
 
 use crate::teach::experiment::CarLink;
 
+/// Tries without an authenticated answer after which the host says hello again.
+pub const HELLO_AFTER: u32 = 3;
+
+/// How many times in one call the car may come back without its state and be configured
+/// again before the host gives up.
+const MAX_RESTORES: u32 = 8;
+
 /// How a [`RemoteCar`] talks.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RemoteConfig {
     /// The frames it transmits.
     pub mode: FrameMode,
@@ -74,18 +102,18 @@ pub struct RemoteConfig {
     pub try_timeout: Duration,
     /// Give a call up after this long.
     pub deadline: Duration,
-    /// The first configuration session to try (`None`: from the clock).
-    pub session: Option<u8>,
+    /// The car's key (`Key::INSECURE` with `--insecure`).
+    pub key: Key,
 }
 
-impl Default for RemoteConfig {
-    /// CAN FD, 20 ms per try, 30 s per call, a session from the clock.
-    fn default() -> Self {
+impl RemoteConfig {
+    /// CAN FD, 20 ms per try, 30 s per call, with `key`.
+    pub fn new(key: Key) -> Self {
         Self {
             mode: FrameMode::Fd,
             try_timeout: Duration::from_millis(20),
             deadline: Duration::from_secs(30),
-            session: None,
+            key,
         }
     }
 }
@@ -101,10 +129,25 @@ pub struct RemoteStats {
     pub feedback_deliveries: u64,
     /// Ticks observed again because the car had forgotten them (it restarted).
     pub reobserved: u64,
-    /// Watchdog stops received and ignored.
-    pub watchdog_stops: u64,
+    /// Stops that answered no observation (watchdog, reset, new configuration), ignored.
+    pub stops_ignored: u64,
+    /// Hellos sent.
+    pub hellos: u64,
+    /// Welcomes that showed a new epoch: the car restarted.
+    pub car_restarts: u64,
+    /// Times the car was configured again with the host's snapshot after losing its state.
+    pub restores: u64,
     /// Frames that could not be sent or were malformed on receipt (transient link trouble).
     pub link_errors: u64,
+    /// Messages from the car refused (authentication or freshness).
+    pub refused: RefusalStats,
+}
+
+/// The last learner the car reported, and where it stood.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Held {
+    status: CarStatus,
+    snapshot: LearnerSnapshot,
 }
 
 /// The learner on the car's controller, behind a [`Link`].
@@ -112,44 +155,33 @@ pub struct RemoteCar<L: Link> {
     link: L,
     config: RemoteConfig,
     inbox: Inbox,
+    security: HostSecurity,
     start: Instant,
-    session: u8,
-    next_seq: u8,
+    /// The car's epoch and status as the last welcome said.
+    epoch: Option<u32>,
+    car: Option<CarStatus>,
+    /// What the car holds as far as this host knows: the session it configured and the
+    /// generation (feedback acknowledged since).
+    expected: Option<CarStatus>,
+    /// The last snapshot the car reported.
+    held: Option<Held>,
+    sender: Option<FeedbackSender>,
     /// The last tick acted in: its observation and the decision.
     last: Option<(u32, Observation, Decision)>,
-    /// Tells a watchdog stop from a real one; taken out while an observation is exchanged.
-    stops: Option<Box<StopCheck>>,
+    /// Tries since the last authenticated message.
+    silent_tries: u32,
+    /// Set by a welcome that required configuring the car again.
+    restored: bool,
+    restores_in_call: u32,
     stats: RemoteStats,
-}
-
-/// The car's evaluator on the host, run only when the car answers with a stop.
-struct StopCheck {
-    evaluator: Evaluator,
-    table: FeatureTable,
-}
-
-impl StopCheck {
-    fn new() -> Box<Self> {
-        Box::new(Self {
-            evaluator: Evaluator::new(),
-            table: FeatureTable::ZERO,
-        })
-    }
-
-    /// Whether a stop for `obs` is the car's watchdog: the observation leaves some trajectory
-    /// free, so the car's own answer would not be a stop (the same evaluator, the same mask).
-    fn is_watchdog(&mut self, obs: &Observation) -> bool {
-        self.evaluator
-            .evaluate(obs, &mut self.table)
-            .is_ok_and(|mask| !mask.is_empty())
-    }
 }
 
 impl<L: Link> std::fmt::Debug for RemoteCar<L> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("RemoteCar")
             .field("link", &self.link.describe())
-            .field("session", &self.session)
+            .field("epoch", &self.epoch)
+            .field("expected", &self.expected)
             .field("stats", &self.stats)
             .finish()
     }
@@ -166,32 +198,42 @@ enum Answer<T> {
 impl<L: Link> RemoteCar<L> {
     /// A remote car over `link`. Call [`CarLink::restore`] first.
     pub fn new(link: L, config: RemoteConfig) -> Self {
-        let session = config.session.unwrap_or_else(|| {
-            std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map_or(1, |d| (d.subsec_nanos() >> 10) as u8)
-        });
+        let security = HostSecurity::new(&config.key);
         Self {
             link,
             config,
             inbox: Inbox::new(Direction::CarToHost),
+            security,
             start: Instant::now(),
-            session,
-            next_seq: 0,
+            epoch: None,
+            car: None,
+            expected: None,
+            held: None,
+            sender: None,
             last: None,
-            stops: Some(StopCheck::new()),
+            silent_tries: 0,
+            restored: false,
+            restores_in_call: 0,
             stats: RemoteStats::default(),
         }
     }
 
     /// What it has done.
     pub fn stats(&self) -> RemoteStats {
-        self.stats
+        RemoteStats {
+            refused: self.security.refusals(),
+            ..self.stats
+        }
     }
 
-    /// The configuration session in use.
-    pub fn session(&self) -> u8 {
-        self.session
+    /// The configured session, if any.
+    pub fn session(&self) -> Option<u8> {
+        self.expected.and_then(|s| s.session)
+    }
+
+    /// The car's status as the last welcome said (it may have moved on since).
+    pub fn car_status(&self) -> Option<CarStatus> {
+        self.car
     }
 
     /// The link.
@@ -204,6 +246,7 @@ impl<L: Link> RemoteCar<L> {
         &mut self.link
     }
 
+    /// Milliseconds since this host started (wrapping): the time the protocol sees.
     fn now_ms(&self) -> u32 {
         self.start.elapsed().as_millis() as u32
     }
@@ -215,9 +258,10 @@ impl<L: Link> RemoteCar<L> {
             msg,
             Direction::HostToCar,
             self.config.mode,
+            &mut self.security,
         ) {
             Ok(_) => Ok(()),
-            Err(protocol::link::TransmitError::Bus {
+            Err(TransmitError::Bus {
                 error: LinkError::Io { .. },
                 ..
             }) => {
@@ -228,7 +272,15 @@ impl<L: Link> RemoteCar<L> {
         }
     }
 
-    /// The next message from the car before `until`, if any.
+    fn say_hello(&mut self) -> Result<()> {
+        let nonce = hil_mock::key::random_nonce()?;
+        let hello = self.security.hello(nonce);
+        self.stats.hellos += 1;
+        self.send(&hello)
+    }
+
+    /// The next authenticated message from the car before `until`, if any. A welcome is taken
+    /// here ([`RemoteCar::on_welcome`]) and not returned.
     fn receive(&mut self, until: Instant) -> Result<Option<Message>> {
         loop {
             let now = Instant::now();
@@ -247,15 +299,85 @@ impl<L: Link> RemoteCar<L> {
             };
             let now_ms = self.now_ms();
             while self.inbox.poll(now_ms).is_some() {}
-            if let Some(frame) = got
-                && let Received::Message(m) = self.inbox.feed(&frame, now_ms)
-            {
+            let Some(frame) = got else { continue };
+            if let Received::Message(m) = self.inbox.feed(&frame, now_ms, &mut self.security) {
+                self.silent_tries = 0;
+                if let Message::Welcome(w) = m {
+                    self.on_welcome(&w)?;
+                    continue;
+                }
                 return Ok(Some(m));
             }
         }
     }
 
-    /// Sends `request` until `accept` takes an answer, within the deadline.
+    /// Takes a welcome: the car's epoch and status. A car that lost what this host taught it
+    /// is configured again from the host's snapshot when that snapshot is current; otherwise
+    /// the loss is an error.
+    fn on_welcome(&mut self, w: &Welcome) -> Result<()> {
+        if self.epoch.is_some_and(|e| e != w.epoch) {
+            self.stats.car_restarts += 1;
+        }
+        self.epoch = Some(w.epoch);
+        self.car = Some(w.status);
+        let Some(expected) = self.expected else {
+            return Ok(());
+        };
+        let in_flight = self.sender.as_ref().map_or(0, |s| s.in_flight() as u32);
+        let holds = w.status.session == expected.session
+            && (expected.generation..=expected.generation + in_flight)
+                .contains(&w.status.generation);
+        if holds {
+            return Ok(());
+        }
+        match self.held {
+            Some(h) if h.status == expected => {
+                self.restores_in_call += 1;
+                if self.restores_in_call > MAX_RESTORES {
+                    bail!(
+                        "the car keeps losing its learner: configured again {MAX_RESTORES} times in one call"
+                    );
+                }
+                self.stats.restores += 1;
+                eprintln!(
+                    "host-sim: the car came back holding {} instead of {}; configuring it \
+                     again with the snapshot of {}",
+                    w.status, expected, h.status
+                );
+                self.configure(&h.snapshot)?;
+                self.restored = true;
+                Ok(())
+            }
+            held => {
+                let held_generation = held.map_or(0, |h| h.status.generation);
+                let lost = if w.status.session == expected.session {
+                    expected.generation.saturating_sub(w.status.generation)
+                } else {
+                    expected.generation
+                };
+                bail!(
+                    "the car lost what it was taught: it came back holding {} ({}) where the \
+                     host expected {}; {lost} acknowledged corrections are gone from the car, \
+                     and the host holds {}, so restoring it would undo {} of them: the run \
+                     cannot go on bit-identical",
+                    w.status,
+                    if w.status.session.is_none() {
+                        "its flash was unreadable or erased"
+                    } else {
+                        "it restored an older state"
+                    },
+                    expected,
+                    held.map_or("no snapshot of the car's learner".to_string(), |h| {
+                        format!("only the snapshot of {}", h.status)
+                    }),
+                    expected.generation.saturating_sub(held_generation)
+                )
+            }
+        }
+    }
+
+    /// Sends `request` until `accept` takes an answer, within the deadline; says hello first
+    /// when not welcomed yet and after [`HELLO_AFTER`] silent tries.
     fn exchange<T>(
         &mut self,
         what: &str,
@@ -264,7 +386,13 @@ impl<L: Link> RemoteCar<L> {
     ) -> Result<T> {
         let deadline = Instant::now() + self.config.deadline;
         loop {
-            self.send(request)?;
+            if self.epoch.is_none() || self.silent_tries >= HELLO_AFTER {
+                self.silent_tries = 0;
+                self.say_hello()?;
+            }
+            if self.epoch.is_some() {
+                self.send(request)?;
+            }
             let until = (Instant::now() + self.config.try_timeout).min(deadline);
             while let Some(m) = self.receive(until)? {
                 if let Answer::Done(t) = accept(&m, &mut self.stats)? {
@@ -272,42 +400,209 @@ impl<L: Link> RemoteCar<L> {
                 }
             }
             if Instant::now() >= deadline {
-                bail!(
-                    "{what}: no answer from the car within {:?} over {}",
-                    self.config.deadline,
-                    self.link.describe()
-                );
+                return Err(self.silence(what));
             }
+            self.silent_tries += 1;
             self.stats.retransmissions += 1;
         }
     }
 
+    /// The error of a call the car did not answer in time.
+    fn silence(&self, what: &str) -> anyhow::Error {
+        anyhow!(
+            "{what}: no authenticated answer from the car within {:?} over {} ({} messages from \
+             it refused): is the car running, and does it have the same key?",
+            self.config.deadline,
+            self.link.describe(),
+            self.security.refusals().total(),
+        )
+    }
+
+    /// Makes sure a welcome gave the car's epoch and status.
+    fn welcomed(&mut self) -> Result<CarStatus> {
+        let deadline = Instant::now() + self.config.deadline;
+        while self.epoch.is_none() {
+            self.say_hello()?;
+            let until = (Instant::now() + self.config.try_timeout).min(deadline);
+            while self.epoch.is_none() && self.receive(until)?.is_some() {}
+            if self.epoch.is_none() && Instant::now() >= deadline {
+                return Err(self.silence("hello"));
+            }
+        }
+        Ok(self.car.unwrap_or_default())
+    }
+
+    /// Configures the car with `snapshot` in the session after its current one.
+    fn configure(&mut self, snapshot: &LearnerSnapshot) -> Result<()> {
+        let car = self.welcomed()?;
+        let session = car.session.map_or(1, |s| s.wrapping_add(1));
+        let request = Message::Configure(ConfigureMessage {
+            session,
+            snapshot: *snapshot,
+        });
+        let report = self.exchange("configure", &request, |m, _| match m {
+            Message::Weights(w) if w.status.session == Some(session) => Ok(Answer::Done(*w)),
+            Message::Error(e) if e.code == ErrorCode::Params => {
+                bail!("the car refused the learner configuration")
+            }
+            Message::Error(e) if e.code == ErrorCode::Session => {
+                bail!("the car refused session {session}: another host configured it meanwhile?")
+            }
+            _ => Ok(Answer::Ignore),
+        })?;
+        if report.snapshot != *snapshot || report.status.generation != 0 {
+            bail!("configure: the car reported another learner than the one it was given");
+        }
+        let status = CarStatus {
+            session: Some(session),
+            generation: 0,
+        };
+        self.car = Some(status);
+        self.expected = Some(status);
+        self.held = Some(Held {
+            status,
+            snapshot: *snapshot,
+        });
+        let tries = self.config.deadline.as_millis() / self.config.try_timeout.as_millis().max(1);
+        self.sender = Some(FeedbackSender::new(
+            session,
+            RetryPolicy {
+                timeout_ms: self.config.try_timeout.as_millis().max(1) as u32,
+                max_retries: tries.min(u16::MAX as u128) as u16,
+            },
+        ));
+        Ok(())
+    }
+
     fn observe(&mut self, tick: u32, obs: &Observation) -> Result<Decision> {
+        self.restored = false;
         let request = Message::Observation(ObservationMessage {
             tick,
             observation: obs.clone(),
         });
-        let mut stops = self.stops.take().unwrap_or_else(StopCheck::new);
-        let decision = self.exchange(&format!("tick {tick}"), &request, |m, stats| match m {
+        let mut not_configured = false;
+        let d = self.exchange(&format!("tick {tick}"), &request, |m, stats| match m {
             Message::Action(a) if a.tick == tick => {
-                // A stop despite a free trajectory is the car's watchdog, not its answer.
-                if a.track.is_none() && stops.is_watchdog(obs) {
-                    stats.watchdog_stops += 1;
+                if !a.answers_observation() {
+                    // The car's watchdog, a reset or a new configuration, not its answer.
+                    stats.stops_ignored += 1;
                     return Ok(Answer::Ignore);
                 }
-                Ok(Answer::Done(Decision {
+                Ok(Answer::Done(Some(Decision {
                     tick,
                     action: a.action(),
                     allowed: a.allowed,
-                }))
+                })))
+            }
+            Message::Action(a) if a.stop_reason().is_some() => {
+                stats.stops_ignored += 1;
+                Ok(Answer::Ignore)
             }
             Message::Error(e) if e.code == ErrorCode::Observation && e.tick == Some(tick) => {
                 bail!("tick {tick}: observation refused by the car")
             }
+            Message::Error(e) if e.code == ErrorCode::NotConfigured && e.tick == Some(tick) => {
+                not_configured = true;
+                Ok(Answer::Done(None))
+            }
             _ => Ok(Answer::Ignore),
-        });
-        self.stops = Some(stops);
-        decision
+        })?;
+        match d {
+            Some(d) => {
+                // A restore during the exchange gave the same learner: the answer stands.
+                self.restored = false;
+                Ok(d)
+            }
+            None => {
+                // The car holds no learner: it lost its state. Ask what it holds.
+                debug_assert!(not_configured);
+                self.epoch = None;
+                self.welcomed()?;
+                if !self.restored {
+                    bail!("tick {tick}: the car holds no configured learner");
+                }
+                self.restored = false;
+                self.observe(tick, obs)
+            }
+        }
+    }
+
+    /// Sends `feedback` about `tick` until the car acknowledges it; `Ok(false)` if it was
+    /// nacked `unknown tick` (the tick must be shown again).
+    fn deliver(&mut self, tick: u32, feedback: &Feedback) -> Result<bool> {
+        self.restored = false;
+        let deadline = Instant::now() + self.config.deadline;
+        let now = self.now_ms();
+        let sender = self
+            .sender
+            .as_mut()
+            .ok_or_else(|| anyhow!("feedback before the car was configured"))?;
+        let session = sender.session();
+        let msg = sender
+            .send(now, tick, *feedback)
+            .map_err(|e| anyhow!("tick {tick}: {e}"))?;
+        self.stats.feedback_deliveries += 1;
+        self.send(&Message::Feedback(msg))?;
+        loop {
+            let until = (Instant::now() + self.config.try_timeout).min(deadline);
+            while let Some(m) = self.receive(until)? {
+                if self.restored {
+                    // The car was configured again: a new session; this delivery is void (the
+                    // restored learner never had it).
+                    self.restored = false;
+                    return Ok(false);
+                }
+                let event = self.sender.as_mut().and_then(|s| s.on_reply(&m));
+                match event {
+                    Some(SenderEvent::Delivered { .. }) => {
+                        if let Some(e) = &mut self.expected {
+                            e.generation = e.generation.wrapping_add(1);
+                        }
+                        return Ok(true);
+                    }
+                    Some(SenderEvent::Refused {
+                        code: NackCode::UnknownTick,
+                        ..
+                    }) => return Ok(false),
+                    Some(SenderEvent::Refused {
+                        code: NackCode::WrongSession,
+                        ..
+                    }) => {
+                        // The car is in another session than ours: it lost its state.
+                        self.epoch = None;
+                        self.welcomed()?;
+                        self.restored = false;
+                        return Ok(false);
+                    }
+                    Some(SenderEvent::Refused { code, .. }) => {
+                        bail!("tick {tick}: feedback refused by the car: {code}")
+                    }
+                    _ => {}
+                }
+            }
+            if self.restored {
+                self.restored = false;
+                return Ok(false);
+            }
+            if self.silent_tries >= HELLO_AFTER {
+                self.silent_tries = 0;
+                self.say_hello()?;
+            }
+            self.silent_tries += 1;
+            let now = self.now_ms();
+            while let Some(e) = self.sender.as_mut().and_then(|s| s.poll(now)) {
+                match e {
+                    SenderEvent::Retransmit(m) if m.id.session == session => {
+                        self.stats.retransmissions += 1;
+                        self.send(&Message::Feedback(m))?;
+                    }
+                    SenderEvent::Failed { .. } => {
+                        return Err(self.silence(&format!("feedback on tick {tick}")));
+                    }
+                    _ => {}
+                }
+            }
+        }
     }
 }
 
@@ -316,141 +611,141 @@ const MAX_REOBSERVE: u32 = 16;
 
 impl<L: Link> CarLink for RemoteCar<L> {
     fn restore(&mut self, snapshot: &LearnerSnapshot) -> Result<()> {
-        for _ in 0..8 {
-            let session = self.session;
-            let request = Message::Configure(ConfigureMessage {
-                session,
-                snapshot: *snapshot,
-            });
-            let got = self.exchange("configure", &request, |m, _| match m {
-                Message::Weights(w) => Ok(Answer::Done(*w)),
-                Message::Error(e) if e.code == ErrorCode::Params => {
-                    bail!("the car refused the learner configuration")
-                }
-                _ => Ok(Answer::Ignore),
-            })?;
-            if got == *snapshot {
-                self.next_seq = 0;
-                self.last = None;
-                return Ok(());
-            }
-            // The car already had this session (from an earlier run): take another.
-            self.session = session.wrapping_add(1);
-        }
-        bail!("configure: the car never reported the learner it was given")
+        self.restores_in_call = 0;
+        self.last = None;
+        self.configure(snapshot)
     }
 
     fn act(&mut self, tick: u32, obs: &Observation) -> Result<Decision> {
+        self.restores_in_call = 0;
         let d = self.observe(tick, obs)?;
         self.last = Some((tick, obs.clone(), d));
         Ok(d)
     }
 
     fn feedback(&mut self, tick: u32, feedback: &Feedback) -> Result<()> {
+        self.restores_in_call = 0;
         let mut reobserved = 0;
         loop {
-            let id = DeliveryId {
-                session: self.session,
-                seq: self.next_seq,
-            };
-            self.next_seq = self.next_seq.wrapping_add(1);
-            self.stats.feedback_deliveries += 1;
-            let request = Message::Feedback(FeedbackMessage {
-                id,
-                tick,
-                feedback: *feedback,
-            });
-            let verdict =
-                self.exchange(&format!("feedback on tick {tick}"), &request, |m, _| {
-                    Ok(match m {
-                        Message::Ack(a) if a.id == id => Answer::Done(None),
-                        Message::Nack(n) if n.id == id => Answer::Done(Some(n.code)),
-                        _ => Answer::Ignore,
-                    })
-                })?;
-            match verdict {
-                None => {
-                    self.stats.feedback_acked += 1;
-                    return Ok(());
-                }
-                Some(NackCode::UnknownTick) => {
-                    // The car restarted and forgot the tick: show it again, then re-send the
-                    // feedback under a new number (the old one is settled as refused).
-                    let Some((t, obs, d)) = self.last.clone().filter(|(t, ..)| *t == tick) else {
-                        bail!("tick {tick}: feedback refused: the car does not know the tick");
-                    };
-                    reobserved += 1;
-                    if reobserved > MAX_REOBSERVE {
-                        bail!("tick {tick}: the car keeps forgetting the tick");
-                    }
-                    self.stats.reobserved += 1;
-                    let again = self.observe(t, &obs)?;
-                    if again != d {
-                        bail!(
-                            "tick {tick}: the car decided differently after a restart \
-                             ({:?} before, {:?} now): its learner was not restored",
-                            d.action,
-                            again.action
-                        );
-                    }
-                }
-                Some(code) => bail!("tick {tick}: feedback refused by the car: {code}"),
+            if self.deliver(tick, feedback)? {
+                self.stats.feedback_acked += 1;
+                return Ok(());
             }
+            // The car restarted and forgot the tick (or was configured again): show it again,
+            // then send the feedback under a new number (the old one was not applied).
+            let Some((t, obs, d)) = self.last.clone().filter(|(t, ..)| *t == tick) else {
+                bail!("tick {tick}: feedback refused: the car does not know the tick");
+            };
+            reobserved += 1;
+            if reobserved > MAX_REOBSERVE {
+                bail!("tick {tick}: the car keeps forgetting the tick");
+            }
+            self.stats.reobserved += 1;
+            let again = self.observe(t, &obs)?;
+            if again != d {
+                bail!(
+                    "tick {tick}: the car decided differently after a restart ({:?} before, {:?} \
+                     now): its learner was not restored",
+                    d.action,
+                    again.action
+                );
+            }
+            self.last = Some((t, obs, d));
         }
     }
 
     fn snapshot(&mut self) -> Result<LearnerSnapshot> {
-        self.exchange("weights request", &Message::WeightsRequest, |m, _| {
+        self.restores_in_call = 0;
+        let report = self.exchange("weights request", &Message::WeightsRequest, |m, _| {
             Ok(match m {
                 Message::Weights(w) => Answer::Done(*w),
                 _ => Answer::Ignore,
             })
-        })
+        })?;
+        if let Some(e) = self.expected
+            && report.status != e
+        {
+            bail!(
+                "weights request: the car reports {}, the host expected {e}",
+                report.status
+            );
+        }
+        self.held = Some(Held {
+            status: report.status,
+            snapshot: report.snapshot,
+        });
+        Ok(report.snapshot)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use hil_mock::server::Server;
     use hil_mock::transport::memory::MemoryLink;
-    use protocol::message::ActionCommand;
+    use protocol::car::CarConfig;
+    use protocol::message::{ActionCommand, StopReason};
+    use protocol::secure::CarSecurity;
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
 
-    /// A car that answers every observation first with a watchdog-like stop, then with its
-    /// real action.
+    const KEY: Key = Key::new([0x21; 16]);
+
+    fn quick() -> RemoteConfig {
+        RemoteConfig {
+            try_timeout: Duration::from_millis(5),
+            deadline: Duration::from_secs(2),
+            ..RemoteConfig::new(KEY)
+        }
+    }
+
+    /// A car that answers every observation first with a watchdog stop, then with its real
+    /// action (a stand-in speaking the protocol directly, without a configuration).
     fn stubborn_car(mut link: MemoryLink) {
         let mut inbox = Inbox::new(Direction::HostToCar);
+        let mut sec = CarSecurity::new(&KEY, 5);
         let mut agent = firmware_core::agent::Agent::new(firmware_core::Learner::new(
             firmware_core::LearnerParams::default().check().unwrap(),
         ));
         while let Ok(got) = link.recv(Duration::from_secs(5)) {
             let Some(frame) = got else { return };
-            if let Received::Message(Message::Observation(o)) = inbox.feed(&frame, 0) {
-                let d = agent.act(o.tick, &o.observation).unwrap();
-                for answer in [ActionCommand::stop(o.tick), ActionCommand::from(&d)] {
-                    let msg = Message::Action(answer);
-                    if transmit(
-                        &mut LinkBus(&mut link),
-                        &msg,
-                        Direction::CarToHost,
-                        FrameMode::Fd,
-                    )
-                    .is_err()
-                    {
-                        return;
-                    }
+            let answers = match inbox.feed(&frame, 0, &mut sec) {
+                Received::Message(Message::Observation(o)) => {
+                    let d = agent.act(o.tick, &o.observation).unwrap();
+                    std::vec![
+                        Message::Action(ActionCommand::stop(o.tick, StopReason::Watchdog)),
+                        Message::Action(ActionCommand::from(&d)),
+                    ]
+                }
+                Received::Message(Message::Hello(h)) => {
+                    std::vec![Message::Welcome(sec.welcome(&h, CarStatus::default()))]
+                }
+                _ => continue,
+            };
+            for msg in answers {
+                if transmit(
+                    &mut LinkBus(&mut link),
+                    &msg,
+                    Direction::CarToHost,
+                    FrameMode::Fd,
+                    &mut sec,
+                )
+                .is_err()
+                {
+                    return;
                 }
             }
         }
     }
 
     #[test]
-    fn a_stop_for_an_observation_with_free_trajectories_is_the_watchdog_s() {
+    fn stops_that_answer_no_observation_are_ignored_without_evaluating() {
         let (host, car) = MemoryLink::pair();
         let handle = std::thread::spawn(move || stubborn_car(car));
-        let mut remote = RemoteCar::new(host, RemoteConfig::default());
+        let mut remote = RemoteCar::new(host, quick());
         let d = remote.act(3, &Observation::open_space()).unwrap();
         assert!(d.action.is_some() && !d.allowed.is_empty());
-        assert_eq!(remote.stats().watchdog_stops, 1);
+        assert_eq!(remote.stats().stops_ignored, 1);
         // Everything blocked: the stop is the answer.
         let mut walled = Observation::open_space();
         walled.scan.ranges = [0.1; firmware_core::observation::SCAN_BEAMS];
@@ -458,5 +753,33 @@ mod tests {
         assert_eq!((d.action, d.allowed.is_empty()), (None, true));
         drop(remote);
         handle.join().unwrap();
+    }
+
+    #[test]
+    fn a_host_with_another_key_gets_no_answer_and_says_so() {
+        let (host, mut car) = MemoryLink::pair();
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = stop.clone();
+        let server = std::thread::spawn(move || {
+            let mut s = Server::in_memory(CarConfig::default(), &KEY, 3);
+            s.run(&mut car, &flag).map(|()| s.node().stats())
+        });
+        let mut remote = RemoteCar::new(
+            host,
+            RemoteConfig {
+                key: Key::new([0x22; 16]),
+                deadline: Duration::from_millis(300),
+                ..quick()
+            },
+        );
+        let learner =
+            firmware_core::Learner::new(firmware_core::LearnerParams::default().check().unwrap());
+        let e = remote.restore(&learner.snapshot()).unwrap_err().to_string();
+        assert!(e.contains("hello: no authenticated answer"), "{e}");
+        assert!(e.contains("same key"), "{e}");
+        stop.store(true, Ordering::Relaxed);
+        let stats = server.join().unwrap().unwrap();
+        assert!(stats.refused.mac > 0, "{stats:?}");
+        assert_eq!(stats.actions, 0);
     }
 }

@@ -292,7 +292,10 @@ impl Episode {
     }
 }
 
-/// The observation of a car in `scenario` whose projection onto the path is at arc length `s`.
+/// The observation of a car in `scenario` whose projection onto the path is at arc length `s`,
+/// quantized to the protocol's wire steps (`protocol::quantize::quantize`: ranges in
+/// centimetres, lengths in millimetres, the heading in 10⁻⁴ rad), so that the learner and the
+/// teacher see the same numbers in process as over the link.
 pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
     let pose = car.pose;
     let map = &scenario.map;
@@ -307,7 +310,7 @@ pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
     let (lx, ly) = pose.to_local(rx, ry);
     let pi = std::f32::consts::PI;
     let heading = (wrap_angle(rh - pose.theta) as f32).clamp(-pi, pi);
-    Observation {
+    protocol::quantize::quantize(&Observation {
         scan,
         objects,
         reference: PathReference {
@@ -316,7 +319,7 @@ pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
             heading,
         },
         speed: car.speed as f32,
-    }
+    })
 }
 
 /// The semantic detections from `pose`.

@@ -382,7 +382,7 @@ impl Teacher {
     /// Evaluates `obs` and perceives the latent loss of every action.
     pub fn judge(&mut self, obs: &Observation) -> Result<Judgement, ObservationError> {
         let mut table = FeatureTable::ZERO;
-        let allowed = self.evaluator.evaluate(obs, &mut table)?;
+        let allowed = self.evaluator.evaluate(obs.check()?, &mut table);
         let w = &self.spec.weights;
         let best = policy::select(w, &table, allowed);
         let mut latent = [0.0f32; MAX_ACTIONS];
