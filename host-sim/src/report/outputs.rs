@@ -367,15 +367,15 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
     let cm = 100.0 * MapDrawing::metres_per_pixel(maps[0], scale);
     let mut paths_csv: Vec<[String; 7]> = Vec::new();
     let mut add_path = |fig: &str, h: &str, who: &str, key: &str, p: &PathTrace| {
-        for (i, (x, y)) in p.points.iter().enumerate() {
+        for (i, q) in p.points.iter().enumerate() {
             paths_csv.push([
                 fig.into(),
                 h.into(),
                 who.into(),
                 key.into(),
                 i.to_string(),
-                format!("{x:.4}"),
-                format!("{y:.4}"),
+                format!("{:.4}", q.x),
+                format!("{:.4}", q.y),
             ]);
         }
     };

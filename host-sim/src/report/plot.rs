@@ -12,6 +12,7 @@ use std::path::Path;
 use anyhow::{Result, anyhow};
 use firmware_core::ActionIndex;
 use firmware_core::lattice::{Family, trajectory};
+use nalgebra::{Point2, Vector2};
 use plotters::prelude::*;
 
 use super::raster::Raster;
@@ -146,11 +147,12 @@ impl MapDrawing {
             r.line(pts[i], pts[(i + 1) % n], PATH_BLUE);
         }
         let st = scenario.start;
-        r.disc((st.x, st.y), 0.15, [220, 0, 220]);
+        r.disc(st.position(), 0.15, [220, 0, 220]);
         r
     }
 
-    fn to_px(&self, x: f64, y: f64) -> (i64, i64) {
+    fn to_px(&self, p: Point2<f64>) -> (i64, i64) {
+        let (x, y) = (p.x, p.y);
         // Map yaw is ignored in drawings (all shipped maps have yaw 0).
         let o = self.grid.origin();
         let res = self.grid.resolution() / self.scale as f64;
@@ -163,9 +165,9 @@ impl MapDrawing {
         self.raster.put(x, y, c);
     }
 
-    fn line(&mut self, a: (f64, f64), b: (f64, f64), c: [u8; 3]) {
-        let (x0, y0) = self.to_px(a.0, a.1);
-        let (x1, y1) = self.to_px(b.0, b.1);
+    fn line(&mut self, a: Point2<f64>, b: Point2<f64>, c: [u8; 3]) {
+        let (x0, y0) = self.to_px(a);
+        let (x1, y1) = self.to_px(b);
         let n = (x1 - x0).abs().max((y1 - y0).abs()).max(1);
         for k in 0..=n {
             let x = x0 + (x1 - x0) * k / n;
@@ -176,10 +178,10 @@ impl MapDrawing {
         }
     }
 
-    fn disc(&mut self, p: (f64, f64), radius: f64, c: [u8; 3]) {
+    fn disc(&mut self, p: Point2<f64>, radius: f64, c: [u8; 3]) {
         let res = self.grid.resolution() / self.scale as f64;
         let r = (radius / res).ceil() as i64;
-        let (cx, cy) = self.to_px(p.0, p.1);
+        let (cx, cy) = self.to_px(p);
         for dy in -r..=r {
             for dx in -r..=r {
                 if dx * dx + dy * dy <= r * r {
@@ -192,16 +194,16 @@ impl MapDrawing {
     fn fill_object(&mut self, o: &crate::world::scenario::WorldObject, c: [u8; 3]) {
         use crate::world::scenario::Shape;
         match o.shape {
-            Shape::Disc { radius } => self.disc((o.x, o.y), radius, c),
+            Shape::Disc { radius } => self.disc(o.centre, radius, c),
             Shape::Rect { width, height, yaw } => {
                 let res = self.grid.resolution() / self.scale as f64 / 2.0;
-                let (cs, sn) = (yaw.cos(), yaw.sin());
+                let rotation = crate::world::car::rotation(yaw);
                 let (nu, nv) = ((width / res) as i64, (height / res) as i64);
                 for i in 0..=nu {
                     for j in 0..=nv {
                         let u = -width / 2.0 + width * i as f64 / nu.max(1) as f64;
                         let v = -height / 2.0 + height * j as f64 / nv.max(1) as f64;
-                        let (px, py) = self.to_px(o.x + u * cs - v * sn, o.y + u * sn + v * cs);
+                        let (px, py) = self.to_px(o.centre + rotation * Vector2::new(u, v));
                         self.put(px, py, c);
                     }
                 }
@@ -210,7 +212,7 @@ impl MapDrawing {
     }
 
     /// Draws a polyline through `points` (world frame), two pixels thick.
-    pub fn polyline(&mut self, points: &[(f64, f64)], c: [u8; 3]) {
+    pub fn polyline(&mut self, points: &[Point2<f64>], c: [u8; 3]) {
         for w in points.windows(2) {
             self.line(w[0], w[1], c);
         }
@@ -227,9 +229,9 @@ impl MapDrawing {
     }
 
     /// Marks driven positions (world frame).
-    pub fn trace(&mut self, points: &[(f64, f64)]) {
-        for &(x, y) in points {
-            let (px, py) = self.to_px(x, y);
+    pub fn trace(&mut self, points: &[Point2<f64>]) {
+        for &p in points {
+            let (px, py) = self.to_px(p);
             for d in [(0, 0), (1, 0), (0, 1), (-1, 0), (0, -1)] {
                 self.put(px + d.0, py + d.1, DRIVEN);
             }
@@ -243,7 +245,7 @@ impl MapDrawing {
 }
 
 /// Reads the `x`, `y` columns of a `steps.csv` written by `host-sim run`.
-pub fn read_trace(csv: &Path) -> Result<Vec<(f64, f64)>> {
+pub fn read_trace(csv: &Path) -> Result<Vec<Point2<f64>>> {
     let mut r = csv::Reader::from_path(csv).map_err(|e| anyhow!("{}: {e}", csv.display()))?;
     let header = r
         .headers()
@@ -267,7 +269,7 @@ pub fn read_trace(csv: &Path) -> Result<Vec<(f64, f64)>> {
                 .filter(|v| v.is_finite())
                 .ok_or_else(bad)
         };
-        out.push((parse(cx)?, parse(cy)?));
+        out.push(Point2::new(parse(cx)?, parse(cy)?));
     }
     Ok(out)
 }

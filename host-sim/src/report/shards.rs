@@ -4,6 +4,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail, ensure};
+use nalgebra::Point2;
 use serde::{Deserialize, Serialize};
 
 use super::files::{read_csv, read_text, write_csv, write_file};
@@ -33,7 +34,7 @@ pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &[TrialResult
             write_csv(
                 &dir.join("path.csv"),
                 &["x", "y"],
-                p.points.iter().map(|(x, y)| [x.to_string(), y.to_string()]),
+                p.points.iter().map(|q| [q.x.to_string(), q.y.to_string()]),
             )?;
             write_csv(
                 &dir.join("path-end.csv"),
@@ -225,7 +226,7 @@ fn read_path(dir: &Path) -> Result<PathTrace> {
         end_file.display()
     );
     Ok(PathTrace {
-        points: points.into_iter().map(|p| (p.x, p.y)).collect(),
+        points: points.into_iter().map(|p| Point2::new(p.x, p.y)).collect(),
         end: end.end,
         mean_latent_loss: end.mean_latent_loss,
     })

@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use anyhow::{Result, ensure};
 use firmware_core::LearnerParams;
+use nalgebra::Point2;
 
 use crate::world::car::Pose;
 use crate::world::scenario::Scenario;
@@ -126,12 +127,12 @@ impl StartJitter {
         let car = crate::world::car::CarParams::MUSHR;
         let mut scale = 1.0;
         for _ in 0..5 {
+            // Sideways in the start's frame (y left), then turned.
             let d = u * self.lateral * scale;
-            let pose = Pose {
-                x: st.x - d * libm::sin(st.theta),
-                y: st.y + d * libm::cos(st.theta),
-                theta: st.theta + v * self.heading * scale,
-            };
+            let pose = Pose::at(
+                st.to_world(Point2::new(0.0, d)),
+                st.theta + v * self.heading * scale,
+            );
             if !car.footprint_hits(&scenario.map, pose) {
                 return pose;
             }
