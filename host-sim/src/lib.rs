@@ -29,8 +29,9 @@
 //!    `host-sim demo`, the learner table that picks `host-sim run`'s default learner, and the
 //!    calibration of the teachers' scale.
 //! 3. [`report`]: the reproduction of the paper's section 6. The trial grid and its shards,
-//!    statistics and aggregates, the paper's claims (one pure function each), the figures and
-//!    drawings, and the report's sections.
+//!    statistics and aggregates, the paper's claims (one pure function each) in the paper's
+//!    households and across many generated worlds, the figures and drawings, and the report's
+//!    sections.
 //!
 //! The `host-sim` command (`src/main.rs`, its commands in `src/cli/`) sits on top of the three.
 //!

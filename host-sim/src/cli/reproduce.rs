@@ -25,6 +25,13 @@ pub(crate) struct ReproduceArgs {
     /// docs/reproduction/CALIBRATION.md).
     #[arg(long, default_value_t = 1.0)]
     teacher_scale: f32,
+    /// Generated worlds per teacher for the claims across worlds (seeds 0..K, each with each
+    /// teacher, beside the households and the basement); 0 runs the paper's grid only.
+    #[arg(long, value_name = "K", default_value_t = host_sim::report::grid::DEFAULT_WORLDS)]
+    worlds: u32,
+    /// Trials per setting in each world.
+    #[arg(long, default_value_t = host_sim::report::grid::DEFAULT_WORLD_TRIALS)]
+    world_trials: u32,
 }
 
 #[derive(clap::Args, Debug)]
@@ -47,6 +54,8 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
         steps: args.grid.steps,
         seed: args.grid.seed,
         teacher_scale: args.teacher_scale,
+        worlds: args.worlds,
+        world_trials: args.world_trials,
     };
     o.check()?;
     let shard = args.shard.unwrap_or(Shard::WHOLE);
@@ -94,6 +103,8 @@ pub(crate) fn scale_sweep(args: &ScaleSweepArgs) -> Result<()> {
         steps: args.grid.steps,
         seed: args.grid.seed,
         teacher_scale: 1.0,
+        worlds: 0,
+        world_trials: 1,
     };
     o.check()?;
     let pool = worker_pool(args.grid.jobs)?;
@@ -140,10 +151,9 @@ pub(crate) fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
     prepare_out(out)?;
     let report = host_sim::report::finalize(out, &o, &results)?;
     println!(
-        "merged {} shard folders ({} trials x {} steps) in {:.1} s",
+        "merged {} shard folders ({}) in {:.1} s",
         dirs.len(),
-        o.trials,
-        o.steps,
+        o.describe(),
         started.elapsed().as_secs_f64()
     );
     print_outcome(out, &report);

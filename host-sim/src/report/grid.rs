@@ -9,8 +9,9 @@ use firmware_core::{LearnerParams, PAPER_STEP};
 use rayon::prelude::*;
 
 use super::paths::{PathTrace, learner_lap};
+use super::worlds::{self, WorldTrial};
 use crate::teach::experiment::{self, MAX_STEPS, Mode, RunConfig, StartJitter};
-use crate::teach::record::RESET_CAUSES;
+use crate::teach::record::{RESET_CAUSES, RunReport};
 use crate::world::registry;
 use crate::world::scenario::Scenario;
 use crate::world::sim::ResetReason;
@@ -35,8 +36,17 @@ pub const PAPER_THRESHOLDS: [f32; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 pub const PATH_TICKS: u32 = 1_500;
 /// Largest number of trials per setting.
 pub const MAX_TRIALS: u32 = 10_000;
-/// Version of the shard files.
-pub const SHARD_FORMAT: u32 = 2;
+/// Version of the shard files (3: the worlds' trials in `worlds.csv`).
+pub const SHARD_FORMAT: u32 = 3;
+/// Generated worlds per teacher by default (`--worlds`): with the paper's grid, what a full
+/// reproduction runs in about a minute on two cores (README, "the reproduction's time").
+pub const DEFAULT_WORLDS: u32 = 8;
+/// Trials per setting in each world by default (`--world-trials`).
+pub const DEFAULT_WORLD_TRIALS: u32 = 2;
+/// Most generated worlds per teacher.
+pub const MAX_WORLDS: u32 = 100_000;
+/// Most trials per setting in a world.
+pub const MAX_WORLD_TRIALS: u32 = 100;
 /// The factors of the teachers' scale the scale sweep runs the claims at.
 pub const SWEEP_FACTORS: [f32; 5] = [0.25, 0.5, 1.0, 2.0, 4.0];
 
@@ -153,7 +163,7 @@ pub fn settings() -> Vec<Setting> {
     out
 }
 
-/// The size of the grid, and the teachers' scale.
+/// The size of the grid, the worlds, and the teachers' scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Options {
     /// Trials per setting.
@@ -164,6 +174,10 @@ pub struct Options {
     pub seed: u64,
     /// Every teacher's weights times this (1: the calibrated teachers).
     pub teacher_scale: f32,
+    /// Generated worlds per teacher ([`crate::report::worlds`]; 0: the paper's grid only).
+    pub worlds: u32,
+    /// Trials per setting in each world.
+    pub world_trials: u32,
 }
 
 impl Default for Options {
@@ -173,21 +187,44 @@ impl Default for Options {
             steps: 5_000,
             seed: 0,
             teacher_scale: 1.0,
+            worlds: DEFAULT_WORLDS,
+            world_trials: DEFAULT_WORLD_TRIALS,
         }
     }
 }
 
 impl Options {
-    /// The grid in words: "10 trials × 5000 steps, seed 0" (and the teachers' scale if not 1).
+    /// The grid in words: "10 trials × 5000 steps, seed 0, 8 worlds per teacher × 2 trials" (and
+    /// the teachers' scale if not 1).
     pub fn describe(&self) -> String {
         let mut d = format!(
             "{} trials × {} steps, seed {}",
             self.trials, self.steps, self.seed
         );
+        if self.worlds > 0 {
+            let _ = write!(
+                d,
+                ", {} worlds per teacher × {} trials",
+                self.worlds, self.world_trials
+            );
+        }
         if self.teacher_scale != 1.0 {
             let _ = write!(d, ", teachers' scale × {}", self.teacher_scale);
         }
         d
+    }
+
+    /// The command-line options that make this grid: `--trials 10 --steps 5000 --seed 0
+    /// --worlds 8 --world-trials 2` (and `--teacher-scale F` if not 1).
+    pub fn flags(&self) -> String {
+        let mut f = format!(
+            "--trials {} --steps {} --seed {} --worlds {} --world-trials {}",
+            self.trials, self.steps, self.seed, self.worlds, self.world_trials
+        );
+        if self.teacher_scale != 1.0 {
+            let _ = write!(f, " --teacher-scale {}", self.teacher_scale);
+        }
+        f
     }
 
     /// Checks the numbers.
@@ -208,6 +245,16 @@ impl Options {
             (10..=MAX_STEPS).contains(&self.steps),
             "--steps must be in 10..={MAX_STEPS}, got {}",
             self.steps
+        );
+        ensure!(
+            self.worlds <= MAX_WORLDS,
+            "--worlds must be in 0..={MAX_WORLDS}, got {}",
+            self.worlds
+        );
+        ensure!(
+            (1..=MAX_WORLD_TRIALS).contains(&self.world_trials),
+            "--world-trials must be in 1..={MAX_WORLD_TRIALS}, got {}",
+            self.world_trials
         );
         Ok(())
     }
@@ -269,6 +316,25 @@ pub struct TrialResult {
 }
 
 impl TrialResult {
+    /// The columns of `report`, a run of trial `trial` of setting `setting`.
+    pub fn of_report(
+        setting: usize,
+        trial: u32,
+        report: &RunReport,
+        path: Option<PathTrace>,
+    ) -> Self {
+        Self {
+            setting,
+            trial,
+            latent: report.records.iter().map(|r| r.latent_loss).collect(),
+            corrections: report.records.iter().map(|r| r.corrections).collect(),
+            progress: report.records.iter().map(|r| r.progress).collect(),
+            laps: report.records.iter().map(|r| r.lap).collect(),
+            resets: report.records.iter().map(|r| r.reset).collect(),
+            path,
+        }
+    }
+
     /// Resets by cause: collision, stuck, lost, blocked ([`RESET_CAUSES`]).
     pub fn reset_counts(&self) -> [u32; 4] {
         let mut n = [0u32; 4];
@@ -317,44 +383,117 @@ pub fn run_job(
     } else {
         None
     };
-    Ok(TrialResult {
-        setting,
-        trial,
-        latent: report.records.iter().map(|r| r.latent_loss).collect(),
-        corrections: report.records.iter().map(|r| r.corrections).collect(),
-        progress: report.records.iter().map(|r| r.progress).collect(),
-        laps: report.records.iter().map(|r| r.lap).collect(),
-        resets: report.records.iter().map(|r| r.reset).collect(),
-        path,
-    })
+    Ok(TrialResult::of_report(setting, trial, &report, path))
 }
 
-/// The jobs of `shard`: (setting, trial), in grid order.
-pub fn jobs(o: &Options, shard: Shard) -> Vec<(usize, u32)> {
-    let n = settings().len();
-    (0..n)
-        .flat_map(|s| (0..o.trials).map(move |t| (s, t)))
+/// One run of the grid: a trial of a setting of the paper's grid, or of a setting of a world.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Job {
+    /// Trial `trial` of [`settings`]`[setting]`.
+    Grid {
+        /// Index into [`settings`].
+        setting: usize,
+        /// The trial.
+        trial: u32,
+    },
+    /// Trial `trial` of [`worlds::world_settings`]`[setting]` in [`worlds::worlds`]`[world]`.
+    World {
+        /// Index into the worlds.
+        world: usize,
+        /// Index into the worlds' settings.
+        setting: usize,
+        /// The trial.
+        trial: u32,
+    },
+}
+
+/// The jobs of `shard`, in grid order: the paper's grid setting-major, then the worlds
+/// world-major, setting, trial. Job `k` of the whole list is in shard `k mod n`.
+pub fn jobs(o: &Options, shard: Shard) -> Vec<Job> {
+    let grid = (0..settings().len())
+        .flat_map(|setting| (0..o.trials).map(move |trial| Job::Grid { setting, trial }));
+    let per_world = worlds::world_settings().len();
+    let world_jobs = (0..worlds::worlds(o.worlds).len()).flat_map(move |world| {
+        (0..per_world).flat_map(move |setting| {
+            (0..o.world_trials).map(move |trial| Job::World {
+                world,
+                setting,
+                trial,
+            })
+        })
+    });
+    grid.chain(world_jobs)
         .enumerate()
         .filter(|(k, _)| shard.has(*k))
         .map(|(_, j)| j)
         .collect()
 }
 
+/// What a shard (or the whole grid) produced.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Results {
+    /// The paper's grid's trials, in job order.
+    pub grid: Vec<TrialResult>,
+    /// The worlds' trials, in job order.
+    pub worlds: Vec<WorldTrial>,
+}
+
 /// Runs the jobs of `shard` on the current rayon pool; `done` is called after each job.
-pub fn run_shard(o: &Options, shard: Shard, done: &(dyn Fn() + Sync)) -> Result<Vec<TrialResult>> {
+pub fn run_shard(o: &Options, shard: Shard, done: &(dyn Fn() + Sync)) -> Result<Results> {
     o.check()?;
     let households = load_households()?;
     let all = settings();
     let jobs = jobs(o, shard);
-    let results: Vec<Result<TrialResult>> = jobs
+    let world_list = worlds::worlds(o.worlds);
+    let needed: Vec<usize> = {
+        let mut v: Vec<usize> = jobs
+            .iter()
+            .filter_map(|j| match j {
+                Job::World { world, .. } => Some(*world),
+                Job::Grid { .. } => None,
+            })
+            .collect();
+        v.dedup();
+        v
+    };
+    let scenarios = worlds::Scenarios::load(&world_list, &needed)?;
+    let world_settings = worlds::world_settings();
+    enum Done {
+        Grid(TrialResult),
+        World(WorldTrial),
+    }
+    let results: Vec<Result<Done>> = jobs
         .par_iter()
-        .map(|&(s, t)| {
-            let r = run_job(&households, &all, s, t, o);
+        .map(|&job| {
+            let r = match job {
+                Job::Grid { setting, trial } => {
+                    run_job(&households, &all, setting, trial, o).map(Done::Grid)
+                }
+                Job::World {
+                    world,
+                    setting,
+                    trial,
+                } => worlds::run_world_job(
+                    &scenarios,
+                    &world_list,
+                    &world_settings,
+                    (world, setting, trial),
+                    o,
+                )
+                .map(Done::World),
+            };
             done();
             r
         })
         .collect();
-    results.into_iter().collect()
+    let mut out = Results::default();
+    for r in results {
+        match r? {
+            Done::Grid(t) => out.grid.push(t),
+            Done::World(w) => out.worlds.push(w),
+        }
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -370,11 +509,13 @@ mod tests {
         let o = Options {
             trials: 3,
             steps: 10,
-            seed: 0,
-            teacher_scale: 1.0,
+            worlds: 2,
+            world_trials: 2,
+            ..Options::default()
         };
         let whole = jobs(&o, Shard::WHOLE);
-        assert_eq!(whole.len(), settings().len() * 3);
+        let world_jobs = worlds::worlds(2).len() * worlds::world_settings().len() * 2;
+        assert_eq!(whole.len(), settings().len() * 3 + world_jobs);
         let mut union: Vec<_> = (0..4)
             .flat_map(|i| jobs(&o, Shard { index: i, count: 4 }))
             .collect();

@@ -69,6 +69,8 @@
 //! * [`raster`]: the one raster and PNG encoder of every picture; [`figure`] (charts, sheets of
 //!   pictures), [`plot`] (the lattice, maps) and [`panels`] (the report's panels) draw on it.
 //! * [`outputs`]: every file of a finished grid; [`sections`]: the report's text.
+//! * [`worlds`]: the claims across worlds: every claim in each of many generated households,
+//!   with intervals (`--worlds K`).
 //! * [`sweep`]: the claims at other scales of the teachers.
 //! * [`registry`]: the paper's experiments by name (`host-sim list`).
 
@@ -87,6 +89,7 @@ pub mod sections;
 pub mod shards;
 pub mod statistics;
 pub mod sweep;
+pub mod worlds;
 
 pub use grid::{Options, Shard, jobs, run_shard};
 pub use outputs::finalize;

@@ -10,13 +10,14 @@ use super::aggregate::{Aggregate, aggregate_all};
 use super::figure::{self, PALETTE, Panel, Series};
 use super::files::{write_csv, write_file};
 use super::grid::{
-    Group, HOUSEHOLDS, NOISE_CURVES, Options, PATH_TICKS, Setting, TrialResult, load_households,
+    Group, HOUSEHOLDS, NOISE_CURVES, Options, PATH_TICKS, Results, Setting, load_households,
     paper_learner,
 };
 use super::panels::{corrections_panel, loss_panel, map_picture, progress_panel};
 use super::paths::{PathTrace, learner_lap};
 use super::plot::MapDrawing;
 use super::sections::report;
+use super::worlds;
 use crate::teach::experiment::{self, Mode};
 use crate::world::scenario::Scenario;
 use crate::world::teacher::{TeacherSpec, scaled};
@@ -174,8 +175,8 @@ fn teacher_laps(
 }
 
 /// Writes every output of a finished grid into `out`; returns the report's text.
-pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<String> {
-    let aggs = aggregate_all(o, results)?;
+pub fn finalize(out: &Path, o: &Options, results: &Results) -> Result<String> {
+    let aggs = aggregate_all(o, &results.grid)?;
     let households = load_households()?;
     let figs = out.join("figures");
     std::fs::create_dir_all(&figs).with_context(|| format!("{}: cannot create", figs.display()))?;
@@ -453,7 +454,20 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
     )?;
 
     let calibration = crate::teach::calibrate::run()?;
-    let report = report(o, &aggs, &calibration, &teacher_paths, &path_rows, cm);
+    let across = if o.worlds > 0 {
+        Some(worlds::section::write(out, &figs, o, &results.worlds)?)
+    } else {
+        None
+    };
+    let report = report(
+        o,
+        &aggs,
+        &calibration,
+        across.as_deref(),
+        &teacher_paths,
+        &path_rows,
+        cm,
+    );
     write_file(&out.join("REPORT.md"), report.as_bytes())?;
     Ok(report)
 }

@@ -7,15 +7,19 @@ use anyhow::{Context, Result, bail, ensure};
 use nalgebra::Point2;
 use serde::{Deserialize, Serialize};
 
+use super::aggregate::TrialSummary;
 use super::files::{read_csv, read_text, write_csv, write_file};
-use super::grid::{Options, SHARD_FORMAT, Setting, Shard, TrialResult, jobs, settings};
+use super::grid::{
+    Job, Options, Results, SHARD_FORMAT, Setting, Shard, TrialResult, jobs, settings,
+};
 use super::paths::PathTrace;
+use super::worlds::{WorldTrial, world_setting_key, world_settings, worlds};
 use crate::world::sim::ResetReason;
 
 /// Writes a shard's raw results and its manifest into `dir`.
-pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &[TrialResult]) -> Result<()> {
+pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &Results) -> Result<()> {
     let all = settings();
-    for r in results {
+    for r in &results.grid {
         let dir = dir.join("trials").join(all[r.setting].key());
         write_csv(
             &dir.join(format!("{}.csv", r.trial)),
@@ -43,9 +47,12 @@ pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &[TrialResult
             )?;
         }
     }
+    if !results.worlds.is_empty() {
+        write_worlds(&dir.join("worlds.csv"), o, &results.worlds)?;
+    }
     let manifest = Manifest {
         format: SHARD_FORMAT,
-        jobs: results.len(),
+        jobs: results.grid.len() + results.worlds.len(),
         seed: o.seed,
         settings: all.iter().map(Setting::key).collect(),
         shard: shard.index,
@@ -53,6 +60,9 @@ pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &[TrialResult
         steps: o.steps,
         teacher_scale: o.teacher_scale,
         trials: o.trials,
+        world_settings: world_settings().iter().map(world_setting_key).collect(),
+        world_trials: o.world_trials,
+        worlds: o.worlds,
     };
     write_file(
         &dir.join("manifest.json"),
@@ -61,8 +71,7 @@ pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &[TrialResult
 }
 
 /// A shard's `manifest.json`: the grid it belongs to and which slice of it it holds. Written
-/// last, so a folder without one did not finish. (Fields in alphabetical order: the order of
-/// the files written before it was a struct.)
+/// last, so a folder without one did not finish.
 #[derive(Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Manifest {
@@ -84,6 +93,12 @@ struct Manifest {
     teacher_scale: f32,
     /// Trials per setting.
     trials: u32,
+    /// Every world setting's key, in order.
+    world_settings: Vec<String>,
+    /// Trials per setting in each world.
+    world_trials: u32,
+    /// Generated worlds per teacher.
+    worlds: u32,
 }
 
 /// Just the format of a manifest, read first so that another format is named as such.
@@ -105,8 +120,9 @@ fn read_manifest(dir: &Path) -> Result<(Options, Shard)> {
     let m: Manifest = serde_json::from_str(&text)
         .with_context(|| format!("{}: not a shard's manifest", path.display()))?;
     let keys: Vec<String> = settings().iter().map(Setting::key).collect();
+    let world_keys: Vec<String> = world_settings().iter().map(world_setting_key).collect();
     ensure!(
-        m.settings == keys,
+        m.settings == keys && m.world_settings == world_keys,
         "{}: written by a build with other settings",
         path.display()
     );
@@ -115,6 +131,8 @@ fn read_manifest(dir: &Path) -> Result<(Options, Shard)> {
         steps: m.steps,
         seed: m.seed,
         teacher_scale: m.teacher_scale,
+        worlds: m.worlds,
+        world_trials: m.world_trials,
     };
     o.check()
         .with_context(|| format!("{}: bad grid", path.display()))?;
@@ -232,8 +250,155 @@ fn read_path(dir: &Path) -> Result<PathTrace> {
     })
 }
 
+/// The header of a shard's `worlds.csv`.
+const WORLD_HEADER: [&str; 16] = [
+    "world",
+    "name",
+    "setting",
+    "trial",
+    "generated",
+    "first_loss",
+    "final_loss",
+    "corrections",
+    "first_tenth_corrections",
+    "last_tenth_corrections",
+    "laps",
+    "progress",
+    "resets_collision",
+    "resets_stuck",
+    "resets_lost",
+    "resets_blocked",
+];
+
+/// A row of a shard's `worlds.csv`: one trial of a world (zeros when the generator gave no
+/// world for the seed).
+#[derive(Deserialize)]
+struct WorldRow {
+    world: usize,
+    name: String,
+    setting: String,
+    trial: u32,
+    generated: u8,
+    first_loss: f64,
+    final_loss: f64,
+    corrections: u32,
+    first_tenth_corrections: u32,
+    last_tenth_corrections: u32,
+    laps: u32,
+    progress: f64,
+    resets_collision: u32,
+    resets_stuck: u32,
+    resets_lost: u32,
+    resets_blocked: u32,
+}
+
+fn write_worlds(path: &Path, o: &Options, trials: &[WorldTrial]) -> Result<()> {
+    let worlds = worlds(o.worlds);
+    let settings = world_settings();
+    write_csv(
+        path,
+        &WORLD_HEADER,
+        trials.iter().map(|t| {
+            let s = t.summary.unwrap_or(TrialSummary {
+                first_loss: 0.0,
+                final_loss: 0.0,
+                corrections: 0,
+                first_tenth_corrections: 0,
+                last_tenth_corrections: 0,
+                laps: 0,
+                progress: 0.0,
+                resets: [0; 4],
+            });
+            let mut row = vec![
+                t.world.to_string(),
+                worlds[t.world].name(),
+                world_setting_key(&settings[t.setting]),
+                t.trial.to_string(),
+                u8::from(t.summary.is_some()).to_string(),
+                s.first_loss.to_string(),
+                s.final_loss.to_string(),
+                s.corrections.to_string(),
+                s.first_tenth_corrections.to_string(),
+                s.last_tenth_corrections.to_string(),
+                s.laps.to_string(),
+                s.progress.to_string(),
+            ];
+            row.extend(s.resets.iter().map(u32::to_string));
+            row
+        }),
+    )
+}
+
+/// The world trials of a shard's `worlds.csv`, checked against the jobs `expected` (world,
+/// setting, trial) it must hold.
+fn read_worlds(
+    dir: &Path,
+    o: &Options,
+    expected: &[(usize, usize, u32)],
+) -> Result<Vec<WorldTrial>> {
+    if expected.is_empty() {
+        return Ok(Vec::new());
+    }
+    let path = dir.join("worlds.csv");
+    let rows: Vec<WorldRow> = read_csv(&path)?;
+    ensure!(
+        rows.len() == expected.len(),
+        "{}: {} rows, expected {}",
+        path.display(),
+        rows.len(),
+        expected.len()
+    );
+    let worlds = worlds(o.worlds);
+    let settings = world_settings();
+    rows.into_iter()
+        .zip(expected)
+        .enumerate()
+        .map(|(i, (r, &(world, setting, trial)))| {
+            let line = i + 2;
+            ensure!(
+                r.world == world
+                    && r.name == worlds[world].name()
+                    && r.setting == world_setting_key(&settings[setting])
+                    && r.trial == trial,
+                "{}: line {line}: {} {} trial {}, expected {} {} trial {trial}",
+                path.display(),
+                r.name,
+                r.setting,
+                r.trial,
+                worlds[world].name(),
+                world_setting_key(&settings[setting])
+            );
+            ensure!(
+                r.first_loss.is_finite() && r.final_loss.is_finite() && r.progress.is_finite(),
+                "{}: line {line}: a number is not finite",
+                path.display()
+            );
+            Ok(WorldTrial {
+                world,
+                setting,
+                trial,
+                summary: (r.generated != 0).then_some(TrialSummary {
+                    first_loss: r.first_loss,
+                    final_loss: r.final_loss,
+                    corrections: r.corrections,
+                    first_tenth_corrections: r.first_tenth_corrections,
+                    last_tenth_corrections: r.last_tenth_corrections,
+                    laps: r.laps,
+                    progress: r.progress,
+                    resets: [
+                        r.resets_collision,
+                        r.resets_stuck,
+                        r.resets_lost,
+                        r.resets_blocked,
+                    ],
+                }),
+            })
+        })
+        .collect()
+}
+
 /// Reads shard folders; checks that they are one grid, each shard exactly once.
-pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Vec<TrialResult>)> {
+pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Results)> {
     ensure!(!dirs.is_empty(), "merge needs at least one shard folder");
     let mut grid: Option<(Options, u32)> = None;
     let mut seen = BTreeMap::new();
@@ -280,37 +445,41 @@ pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Vec<TrialResult>)> {
     let missing: Vec<u32> = (0..n).filter(|i| !seen.contains_key(i)).collect();
     ensure!(
         missing.is_empty(),
-        "shards {missing:?} of {n} are missing{unfinished_note}: run `host-sim reproduce --trials {} \
-         --steps {} --seed {}{} --shard INDEX/{n}` again for each missing INDEX, then merge again",
-        o.trials,
-        o.steps,
-        o.seed,
-        if o.teacher_scale != 1.0 {
-            format!(" --teacher-scale {}", o.teacher_scale)
-        } else {
-            String::new()
-        }
+        "shards {missing:?} of {n} are missing{unfinished_note}: run `host-sim reproduce {} \
+         --shard INDEX/{n}` again for each missing INDEX, then merge again",
+        o.flags()
     );
     let all = settings();
-    let mut results = Vec::new();
+    let mut results = Results::default();
     for (index, dir) in &seen {
-        for (s, t) in jobs(
+        let mut world_jobs = Vec::new();
+        for job in jobs(
             &o,
             Shard {
                 index: *index,
                 count: n,
             },
         ) {
-            let sdir = dir.join("trials").join(all[s].key());
-            results.push(read_trial(
-                &sdir,
-                s,
-                t,
-                o.steps,
-                all[s].draw_path && t == 0,
-            )?);
+            match job {
+                Job::Grid { setting, trial } => {
+                    let sdir = dir.join("trials").join(all[setting].key());
+                    let path = all[setting].draw_path && trial == 0;
+                    results
+                        .grid
+                        .push(read_trial(&sdir, setting, trial, o.steps, path)?);
+                }
+                Job::World {
+                    world,
+                    setting,
+                    trial,
+                } => world_jobs.push((world, setting, trial)),
+            }
         }
+        results.worlds.extend(read_worlds(dir, &o, &world_jobs)?);
     }
-    results.sort_by_key(|r| (r.setting, r.trial));
+    results.grid.sort_by_key(|r| (r.setting, r.trial));
+    results
+        .worlds
+        .sort_by_key(|r| (r.world, r.setting, r.trial));
     Ok((o, results))
 }

@@ -60,6 +60,16 @@ pub const CLAIMS: [&str; 6] = [
     "The corrections flatten out (fewer in the last tenth of a run than in the first, or none)",
 ];
 
+/// The claims in a few words, for tables where each claim is asked of many worlds.
+pub const SHORT: [&str; 6] = [
+    "every feedback type lowers the latent loss",
+    "behaviour cloning stays about flat",
+    "action feedback needs the fewest corrections",
+    "more noise: higher final loss, more corrections",
+    "lower threshold: lower final loss, more corrections",
+    "the corrections flatten out",
+];
+
 /// A claim's outcome.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Verdict {
