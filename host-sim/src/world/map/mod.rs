@@ -304,32 +304,51 @@ impl OccupancyGrid {
         self.clearance[cy as usize * self.width + cx as usize]
     }
 
+    /// The clearance of cell `(cx, cy)` in cells ([`OccupancyGrid::clearance_cells`]): 0 for a
+    /// cell that is not free or outside the grid, at least 1 for a free one.
+    #[inline]
+    fn clearance_at(&self, cx: i64, cy: i64) -> u16 {
+        if cx < 0 || cy < 0 || cx as usize >= self.width || cy as usize >= self.height {
+            return 0;
+        }
+        self.clearance[cy as usize * self.width + cx as usize]
+    }
+
     /// Distance from `(x, y)` along heading `angle` (world frame, radians) to the first cell
     /// that is not free, at most `max_range`. A ray starting in a blocked cell returns 0.
     ///
-    /// Amanatides–Woo traversal: one step per cell crossed.
+    /// Amanatides–Woo traversal, skipping free space: in a cell of clearance `c` every cell
+    /// within `c − 1` cells along each axis is free, so the ray leaves that square in one jump to
+    /// the cell the traversal would step into next, instead of one step per cell. The crossing
+    /// times of a jump are computed in closed form (`t + k·Δt`) where the cell-by-cell traversal
+    /// adds `Δt` `k` times: the distances agree to rounding (about 10⁻¹⁵ m, far below the
+    /// sensor's 1 cm quantization; `raycast_agrees_with_the_cell_by_cell_traversal` checks
+    /// every beam of many poses on every map).
     pub fn raycast(&self, x: f64, y: f64, angle: f64, max_range: f64) -> f64 {
         let (gx, gy) = self.to_grid(x, y);
         let a = angle - self.origin[2];
         let (dx, dy) = (libm::cos(a), libm::sin(a));
         let mut cx = gx.floor() as i64;
         let mut cy = gy.floor() as i64;
-        if self.blocked_cell(cx, cy) {
+        let mut c = self.clearance_at(cx, cy);
+        if c == 0 {
             return 0.0;
         }
         let max_t = max_range / self.resolution;
         let step_x: i64 = if dx > 0.0 { 1 } else { -1 };
         let step_y: i64 = if dy > 0.0 { 1 } else { -1 };
+        let (abs_x, abs_y) = (dx.abs(), dy.abs());
         let t_delta_x = if dx != 0.0 {
-            1.0 / dx.abs()
+            1.0 / abs_x
         } else {
             f64::INFINITY
         };
         let t_delta_y = if dy != 0.0 {
-            1.0 / dy.abs()
+            1.0 / abs_y
         } else {
             f64::INFINITY
         };
+        // The ray parameter (cells) of the next crossing of a column and of a row boundary.
         let mut t_max_x = if dx > 0.0 {
             (cx as f64 + 1.0 - gx) * t_delta_x
         } else if dx < 0.0 {
@@ -345,7 +364,35 @@ impl OccupancyGrid {
             f64::INFINITY
         };
         loop {
-            let t = if t_max_x < t_max_y {
+            let t = if c >= 2 {
+                // The square of cells within r = c − 1 of (cx, cy) is free: the traversal crosses
+                // r more boundaries on the axis it leaves the square by, and steps into the cell
+                // beyond; on the other axis it crosses every boundary before that (a tie steps
+                // the row first, as below). Never more than r: the square is left once.
+                let r = i64::from(c - 1);
+                let rf = r as f64;
+                let out_x = t_max_x + rf * t_delta_x;
+                let out_y = t_max_y + rf * t_delta_y;
+                if out_x < out_y {
+                    if t_max_y <= out_x {
+                        let rows = ((((out_x - t_max_y) * abs_y) as i64) + 1).min(r);
+                        cy += step_y * rows;
+                        t_max_y += rows as f64 * t_delta_y;
+                    }
+                    cx += step_x * (r + 1);
+                    t_max_x = out_x + t_delta_x;
+                    out_x
+                } else {
+                    if t_max_x < out_y {
+                        let columns = (libm::ceil((out_y - t_max_x) * abs_x) as i64).min(r);
+                        cx += step_x * columns;
+                        t_max_x += columns as f64 * t_delta_x;
+                    }
+                    cy += step_y * (r + 1);
+                    t_max_y = out_y + t_delta_y;
+                    out_y
+                }
+            } else if t_max_x < t_max_y {
                 let t = t_max_x;
                 t_max_x += t_delta_x;
                 cx += step_x;
@@ -359,7 +406,8 @@ impl OccupancyGrid {
             if t >= max_t {
                 return max_range;
             }
-            if self.blocked_cell(cx, cy) {
+            c = self.clearance_at(cx, cy);
+            if c == 0 {
                 return t * self.resolution;
             }
         }
@@ -426,6 +474,122 @@ mod tests {
         assert!((down - 1.4).abs() < 1e-9, "{down}");
         assert_eq!(g.raycast(x, y, 0.3, 0.5), 0.5, "max range");
         assert_eq!(g.raycast(-0.95, 0.0, 0.0, 3.0), 0.0, "inside a wall");
+    }
+
+    /// The cell-by-cell Amanatides–Woo traversal `raycast` replaced (one step and one
+    /// `Δt` added per cell crossed).
+    fn raycast_cell_by_cell(g: &OccupancyGrid, x: f64, y: f64, angle: f64, max_range: f64) -> f64 {
+        let (gx, gy) = g.to_grid(x, y);
+        let a = angle - g.origin[2];
+        let (dx, dy) = (libm::cos(a), libm::sin(a));
+        let mut cx = gx.floor() as i64;
+        let mut cy = gy.floor() as i64;
+        if g.blocked_cell(cx, cy) {
+            return 0.0;
+        }
+        let max_t = max_range / g.resolution;
+        let step_x: i64 = if dx > 0.0 { 1 } else { -1 };
+        let step_y: i64 = if dy > 0.0 { 1 } else { -1 };
+        let t_delta_x = if dx != 0.0 {
+            1.0 / dx.abs()
+        } else {
+            f64::INFINITY
+        };
+        let t_delta_y = if dy != 0.0 {
+            1.0 / dy.abs()
+        } else {
+            f64::INFINITY
+        };
+        let mut t_max_x = if dx > 0.0 {
+            (cx as f64 + 1.0 - gx) * t_delta_x
+        } else if dx < 0.0 {
+            (gx - cx as f64) * t_delta_x
+        } else {
+            f64::INFINITY
+        };
+        let mut t_max_y = if dy > 0.0 {
+            (cy as f64 + 1.0 - gy) * t_delta_y
+        } else if dy < 0.0 {
+            (gy - cy as f64) * t_delta_y
+        } else {
+            f64::INFINITY
+        };
+        loop {
+            let t = if t_max_x < t_max_y {
+                let t = t_max_x;
+                t_max_x += t_delta_x;
+                cx += step_x;
+                t
+            } else {
+                let t = t_max_y;
+                t_max_y += t_delta_y;
+                cy += step_y;
+                t
+            };
+            if t >= max_t {
+                return max_range;
+            }
+            if g.blocked_cell(cx, cy) {
+                return t * g.resolution;
+            }
+        }
+    }
+
+    #[test]
+    fn raycast_agrees_with_the_cell_by_cell_traversal() {
+        use crate::world::registry::{SCENARIOS, load_scenario_unchecked};
+        use crate::world::sim::SENSOR_RANGE;
+        use firmware_core::observation::{SCAN_BEAMS, SCAN_MAX_RANGE, beam_bearing};
+        let mut grids = vec![std::sync::Arc::new(room())];
+        for s in SCENARIOS {
+            grids.push(load_scenario_unchecked(s.name).unwrap().map);
+        }
+        let (mut rays, mut jumped) = (0u64, 0u64);
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut uniform = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for g in &grids {
+            let (w, h) = (
+                g.width() as f64 * g.resolution(),
+                g.height() as f64 * g.resolution(),
+            );
+            let o = g.origin();
+            for _ in 0..3000 {
+                let (x, y) = (o[0] + uniform() * w, o[1] + uniform() * h);
+                if g.is_blocked(x, y) {
+                    continue;
+                }
+                let theta = (uniform() - 0.5) * 2.0 * std::f64::consts::PI;
+                // The beams, and the axes and diagonals (a direction along an axis has a zero
+                // component).
+                let axes = (0..8).map(|k| k as f64 * std::f64::consts::FRAC_PI_4);
+                let beams = (0..SCAN_BEAMS).map(|j| theta + beam_bearing(j) as f64);
+                for a in beams.chain(axes) {
+                    for range in [SCAN_MAX_RANGE as f64, SENSOR_RANGE] {
+                        let want = raycast_cell_by_cell(g, x, y, a, range);
+                        let got = g.raycast(x, y, a, range);
+                        assert!(
+                            (got - want).abs() <= 1e-12 * want.max(1.0),
+                            "{}: ({x}, {y}) at {a}: {got} against {want}",
+                            g.source().display()
+                        );
+                        // What the car is sent: centimetres of the f32 range.
+                        let cm = |r: f64| ((r as f32).min(SCAN_MAX_RANGE) * 100.0).round();
+                        assert_eq!(cm(got), cm(want), "({x}, {y}) at {a}");
+                        rays += 1;
+                        jumped += u64::from(g.clearance_cells(x, y) >= 2);
+                    }
+                }
+            }
+        }
+        assert!(
+            rays > 1_000_000 && jumped > rays / 2,
+            "{rays} rays, {jumped} jumped"
+        );
     }
 
     #[test]
