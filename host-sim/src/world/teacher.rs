@@ -104,7 +104,7 @@ use firmware_core::evaluator::{Evaluation, Evaluator, cross_track_errors};
 use firmware_core::observation::{Observation, ObservationError, ValidObservation};
 use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, Feature, FeatureTable, Feedback, MAX_ACTIONS,
-    Polarity, PreferenceFeedback, SemanticFeedback, Statement, Weights, dot, policy,
+    Polarity, PreferenceFeedback, SemanticFeedback, Statement, Weights, policy,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -401,15 +401,22 @@ impl Teacher {
     pub fn judge_evaluation(&mut self, evaluation: Evaluation) -> Judgement {
         let table = evaluation.table();
         let allowed = evaluation.allowed();
-        let w = &self.spec.weights;
-        let best = policy::select(w, table, allowed);
+        // Every score once: the best is `policy::select`'s (highest, lowest index on ties).
+        let mut score = [0.0f32; MAX_ACTIONS];
+        policy::scores(&self.spec.weights, table, allowed, &mut score);
+        let mut best: Option<ActionIndex> = None;
+        for a in allowed {
+            if !best.is_some_and(|b| score[a.get()] <= score[b.get()]) {
+                best = Some(a);
+            }
+        }
         let mut latent = [0.0f32; MAX_ACTIONS];
         let mut perceived = [0.0f32; MAX_ACTIONS];
         let mut choice: Option<(ActionIndex, f32)> = None;
         if let Some(b) = best {
-            let top = dot(w, &table[b]);
+            let top = score[b.get()];
             for a in allowed {
-                let l = top - dot(w, &table[a]);
+                let l = top - score[a.get()];
                 latent[a.get()] = l;
                 let noise = if self.spec.noise > 0.0 {
                     let n: f32 = StandardNormal.sample(&mut self.rng);

@@ -118,6 +118,9 @@ pub struct OccupancyGrid {
     cells: Vec<Cell>,
     /// Per cell: Chebyshev distance, in cells, to the nearest cell that is not free (outside
     /// the grid counts as not free); 0 for such cells. See [`OccupancyGrid::clearance_cells`].
+    /// Stored with a ring of zeros around the grid (rows of `width + 2`, cell `(c, r)` at
+    /// `(c + 1, r + 1)`), so that a ray cast, which never moves more than one cell beyond the free
+    /// square it leaves, stays on the array without checking its bounds ([`Self::padded`]).
     clearance: Vec<u16>,
     /// Where the map came from (for messages).
     source: PathBuf,
@@ -185,7 +188,12 @@ impl OccupancyGrid {
         cells: Vec<Cell>,
         source: PathBuf,
     ) -> Self {
-        let clearance = chebyshev_clearance(width, height, &cells);
+        let unpadded = chebyshev_clearance(width, height, &cells);
+        let mut clearance = vec![0u16; (width + 2) * (height + 2)];
+        for (r, row) in unpadded.chunks_exact(width.max(1)).enumerate() {
+            let at = (r + 1) * (width + 2) + 1;
+            clearance[at..at + width].copy_from_slice(row);
+        }
         Self {
             width,
             height,
@@ -305,20 +313,16 @@ impl OccupancyGrid {
     pub fn clearance_cells(&self, x: f64, y: f64) -> u16 {
         let (gx, gy) = self.to_grid(x, y);
         let (cx, cy) = (floor_to_int(gx), floor_to_int(gy));
-        if self.blocked_cell(cx, cy) {
-            return 0;
-        }
-        self.clearance[cy as usize * self.width + cx as usize]
+        self.padded(cx, cy).map_or(0, |i| self.clearance[i])
     }
 
-    /// The clearance of cell `(cx, cy)` in cells ([`OccupancyGrid::clearance_cells`]): 0 for a
-    /// cell that is not free or outside the grid, at least 1 for a free one.
+    /// The index of cell `(cx, cy)` in the padded `clearance`; `None` outside the grid.
     #[inline]
-    fn clearance_at(&self, cx: i64, cy: i64) -> u16 {
+    fn padded(&self, cx: i64, cy: i64) -> Option<usize> {
         if cx < 0 || cy < 0 || cx as usize >= self.width || cy as usize >= self.height {
-            return 0;
+            return None;
         }
-        self.clearance[cy as usize * self.width + cx as usize]
+        Some((cy as usize + 1) * (self.width + 2) + cx as usize + 1)
     }
 
     /// Distance from `(x, y)` along heading `angle` (world frame, radians) to the first cell
@@ -351,15 +355,20 @@ impl OccupancyGrid {
     /// The traversal of [`OccupancyGrid::raycast`] from grid point `(gx, gy)` along the unit
     /// vector `(dx, dy)` (grid frame).
     fn cast(&self, gx: f64, gy: f64, dx: f64, dy: f64, max_range: f64) -> f64 {
-        let mut cx = floor_to_int(gx);
-        let mut cy = floor_to_int(gy);
-        let mut c = self.clearance_at(cx, cy);
+        let (cx, cy) = (floor_to_int(gx), floor_to_int(gy));
+        // The cell's index in the padded clearance; every move below is to a neighbour of the
+        // free square around the cell, on the array (its ring at worst, which is 0 and ends it).
+        let Some(mut at) = self.padded(cx, cy) else {
+            return 0.0;
+        };
+        let mut c = self.clearance[at];
         if c == 0 {
             return 0.0;
         }
         let max_t = max_range / self.resolution;
-        let step_x: i64 = if dx > 0.0 { 1 } else { -1 };
-        let step_y: i64 = if dy > 0.0 { 1 } else { -1 };
+        let step_x: isize = if dx > 0.0 { 1 } else { -1 };
+        let step_y: isize = if dy > 0.0 { 1 } else { -1 };
+        let row = step_y * (self.width + 2) as isize;
         let (abs_x, abs_y) = (dx.abs(), dy.abs());
         let t_delta_x = if dx != 0.0 {
             1.0 / abs_x
@@ -388,51 +397,53 @@ impl OccupancyGrid {
         };
         loop {
             let t = if c >= 2 {
-                // The square of cells within r = c − 1 of (cx, cy) is free: the traversal crosses
-                // r more boundaries on the axis it leaves the square by, and steps into the cell
-                // beyond; on the other axis it crosses every boundary before that (a tie steps
-                // the row first, as below). Never more than r: the square is left once.
-                let r = i64::from(c - 1);
+                // The square of cells within r = c − 1 of the cell is free: the traversal
+                // crosses r more boundaries on the axis it leaves the square by, and steps into
+                // the cell beyond; on the other axis it crosses every boundary before that (a tie
+                // steps the row first, as below). Never more than r: the square is left once.
+                let r = c as isize - 1;
                 let rf = r as f64;
                 let out_x = t_max_x + rf * t_delta_x;
                 let out_y = t_max_y + rf * t_delta_y;
-                if out_x < out_y {
+                let (moved, t) = if out_x < out_y {
+                    let mut moved = step_x * (r + 1);
                     if t_max_y <= out_x {
-                        let rows = ((((out_x - t_max_y) * abs_y) as i64) + 1).min(r);
-                        cy += step_y * rows;
+                        let rows = ((((out_x - t_max_y) * abs_y) as isize) + 1).min(r);
+                        moved += row * rows;
                         t_max_y += rows as f64 * t_delta_y;
                     }
-                    cx += step_x * (r + 1);
                     t_max_x = out_x + t_delta_x;
-                    out_x
+                    (moved, out_x)
                 } else {
+                    let mut moved = row * (r + 1);
                     if t_max_x < out_y {
                         // The crossings strictly before out_y: ⌈q⌉ for q > 0.
                         let q = (out_y - t_max_x) * abs_x;
-                        let whole = q as i64;
-                        let columns = (whole + i64::from((whole as f64) < q)).min(r);
-                        cx += step_x * columns;
+                        let whole = q as isize;
+                        let columns = (whole + isize::from((whole as f64) < q)).min(r);
+                        moved += step_x * columns;
                         t_max_x += columns as f64 * t_delta_x;
                     }
-                    cy += step_y * (r + 1);
                     t_max_y = out_y + t_delta_y;
-                    out_y
-                }
+                    (moved, out_y)
+                };
+                at = at.wrapping_add_signed(moved);
+                t
             } else if t_max_x < t_max_y {
                 let t = t_max_x;
                 t_max_x += t_delta_x;
-                cx += step_x;
+                at = at.wrapping_add_signed(step_x);
                 t
             } else {
                 let t = t_max_y;
                 t_max_y += t_delta_y;
-                cy += step_y;
+                at = at.wrapping_add_signed(row);
                 t
             };
             if t >= max_t {
                 return max_range;
             }
-            c = self.clearance_at(cx, cy);
+            c = self.clearance.get(at).copied().unwrap_or(0);
             if c == 0 {
                 return t * self.resolution;
             }
@@ -473,7 +484,7 @@ mod tests {
                         }
                     }
                 }
-                let got = g.clearance[(r * w + c) as usize] as i64;
+                let got = g.padded(c, r).map_or(0, |i| g.clearance[i]) as i64;
                 assert_eq!(got, want, "cell ({c}, {r})");
             }
         }
