@@ -105,6 +105,27 @@ fn floor_to_int(v: f64) -> i64 {
     i.saturating_sub(i64::from((i as f64) > v))
 }
 
+/// One axis of a ray from grid coordinate `g`, in cell `cell`, along direction component `d`:
+/// the step between cells (±1), the ray parameter between two crossings of the axis's cell
+/// boundaries (infinite when `d` is 0), and the parameter of the first crossing.
+#[inline]
+fn axis_start(g: f64, cell: i64, d: f64) -> (i64, f64, f64) {
+    let step = if d > 0.0 { 1 } else { -1 };
+    let delta = if d != 0.0 {
+        1.0 / d.abs()
+    } else {
+        f64::INFINITY
+    };
+    let first = if d > 0.0 {
+        (cell as f64 + 1.0 - g) * delta
+    } else if d < 0.0 {
+        (g - cell as f64) * delta
+    } else {
+        f64::INFINITY
+    };
+    (step, delta, first)
+}
+
 /// A loaded occupancy grid. Row 0 is the **bottom** row (lowest `y`), as in
 /// `nav_msgs/OccupancyGrid`.
 #[derive(Clone, Debug)]
@@ -366,35 +387,11 @@ impl OccupancyGrid {
             return 0.0;
         }
         let max_t = max_range / self.resolution;
-        let step_x: isize = if dx > 0.0 { 1 } else { -1 };
-        let step_y: isize = if dy > 0.0 { 1 } else { -1 };
-        let row = step_y * (self.width + 2) as isize;
+        let (step_x, t_delta_x, mut t_max_x) = axis_start(gx, cx, dx);
+        let (step_y, t_delta_y, mut t_max_y) = axis_start(gy, cy, dy);
+        let row = step_y as isize * (self.width + 2) as isize;
+        let step_x = step_x as isize;
         let (abs_x, abs_y) = (dx.abs(), dy.abs());
-        let t_delta_x = if dx != 0.0 {
-            1.0 / abs_x
-        } else {
-            f64::INFINITY
-        };
-        let t_delta_y = if dy != 0.0 {
-            1.0 / abs_y
-        } else {
-            f64::INFINITY
-        };
-        // The ray parameter (cells) of the next crossing of a column and of a row boundary.
-        let mut t_max_x = if dx > 0.0 {
-            (cx as f64 + 1.0 - gx) * t_delta_x
-        } else if dx < 0.0 {
-            (gx - cx as f64) * t_delta_x
-        } else {
-            f64::INFINITY
-        };
-        let mut t_max_y = if dy > 0.0 {
-            (cy as f64 + 1.0 - gy) * t_delta_y
-        } else if dy < 0.0 {
-            (gy - cy as f64) * t_delta_y
-        } else {
-            f64::INFINITY
-        };
         loop {
             let t = if c >= 2 {
                 // The square of cells within r = c − 1 of the cell is free: the traversal
@@ -525,32 +522,8 @@ mod tests {
             return 0.0;
         }
         let max_t = max_range / g.resolution;
-        let step_x: i64 = if dx > 0.0 { 1 } else { -1 };
-        let step_y: i64 = if dy > 0.0 { 1 } else { -1 };
-        let t_delta_x = if dx != 0.0 {
-            1.0 / dx.abs()
-        } else {
-            f64::INFINITY
-        };
-        let t_delta_y = if dy != 0.0 {
-            1.0 / dy.abs()
-        } else {
-            f64::INFINITY
-        };
-        let mut t_max_x = if dx > 0.0 {
-            (cx as f64 + 1.0 - gx) * t_delta_x
-        } else if dx < 0.0 {
-            (gx - cx as f64) * t_delta_x
-        } else {
-            f64::INFINITY
-        };
-        let mut t_max_y = if dy > 0.0 {
-            (cy as f64 + 1.0 - gy) * t_delta_y
-        } else if dy < 0.0 {
-            (gy - cy as f64) * t_delta_y
-        } else {
-            f64::INFINITY
-        };
+        let (step_x, t_delta_x, mut t_max_x) = axis_start(gx, cx, dx);
+        let (step_y, t_delta_y, mut t_max_y) = axis_start(gy, cy, dy);
         loop {
             let t = if t_max_x < t_max_y {
                 let t = t_max_x;
