@@ -48,9 +48,11 @@ pub(crate) fn bench(scenario: &str, steps: u32) -> Result<()> {
         steps,
         ..RunConfig::new(s)
     };
+    let on_cpu = thread_cpu_time();
     let started = Instant::now();
     let report = experiment::run(&config)?;
     let wall = started.elapsed().as_secs_f64();
+    let cpu = on_cpu.zip(thread_cpu_time()).map(|(a, b)| b - a);
     println!(
         "{}: {} simulated steps (action feedback, {} corrections) in {:.3} s: {:.0} steps/s on one core",
         report.scenario,
@@ -59,5 +61,20 @@ pub(crate) fn bench(scenario: &str, steps: u32) -> Result<()> {
         wall,
         steps as f64 / wall
     );
+    if let Some(cpu) = cpu.filter(|c| *c > 0.0) {
+        println!(
+            "  of which {cpu:.3} s on the CPU (the rest waiting for it: other work shares the \
+             machine): {:.0} steps per second of CPU time",
+            steps as f64 / cpu
+        );
+    }
     Ok(())
+}
+
+/// The time this thread has spent on a CPU (s), from Linux's `/proc/thread-self/schedstat`
+/// (nanoseconds, first field); `None` elsewhere.
+fn thread_cpu_time() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: u64 = stat.split_whitespace().next()?.parse().ok()?;
+    Some(ns as f64 * 1e-9)
 }
