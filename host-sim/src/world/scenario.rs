@@ -66,19 +66,21 @@ use crate::world::teacher::{self, TeacherSpec};
 #[non_exhaustive]
 pub enum ScenarioError {
     /// The file could not be read.
-    #[error("{path}: cannot read: {source}")]
+    #[error("{path}: cannot read: {error}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The I/O error.
-        source: std::io::Error,
+        /// The I/O error (in the message, so not a `source`: a chain of causes prints it once).
+        error: std::io::Error,
     },
     /// The TOML does not parse or has the wrong shape.
-    #[error("{path}: bad TOML: {message}")]
+    #[error("{path}: {message}")]
     Toml {
         /// The file.
         path: PathBuf,
-        /// What the parser said.
+        /// What the parser said, in its own layout: "TOML parse error at line 18, column 13",
+        /// then the line with a caret under the column, then what is wrong, on lines of their
+        /// own.
         message: String,
     },
     /// A field has a bad value.
@@ -92,12 +94,12 @@ pub enum ScenarioError {
         problem: String,
     },
     /// The map could not be loaded.
-    #[error("{path}: map: {source}")]
+    #[error("{path}: map: {error}")]
     Map {
         /// The scenario file.
         path: PathBuf,
-        /// The map's error.
-        source: MapError,
+        /// The map's error (in the message, so not a `source`).
+        error: MapError,
     },
 }
 
@@ -273,9 +275,9 @@ pub const COORDINATE_BOUND: f64 = 1.0e5;
 impl Scenario {
     /// Loads and validates the scenario file at `path`, and its map.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| ScenarioError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         Self::parse(&text, path)
     }
@@ -284,7 +286,7 @@ impl Scenario {
     pub fn parse(text: &str, path: &Path) -> Result<Self, ScenarioError> {
         let raw: RawScenario = toml::from_str(text).map_err(|e| ScenarioError::Toml {
             path: path.to_path_buf(),
-            message: e.to_string().trim_end().replace('\n', " | "),
+            message: e.to_string().trim_end().to_string(),
         })?;
         let name = match raw.name {
             Some(n) if n.trim().is_empty() => return Err(err(path, "name", "must not be empty")),
@@ -298,9 +300,9 @@ impl Scenario {
             return Err(err(path, "map", "must name a map_server YAML file"));
         }
         let map_path = path.parent().unwrap_or(Path::new("")).join(&raw.map);
-        let map = OccupancyGrid::load(&map_path).map_err(|source| ScenarioError::Map {
+        let map = OccupancyGrid::load(&map_path).map_err(|error| ScenarioError::Map {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
 
         let mut points = Vec::with_capacity(raw.path.waypoints.len());
