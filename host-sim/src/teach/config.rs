@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use anyhow::{Result, ensure};
-use firmware_core::LearnerParams;
+use firmware_core::{LearnerParams, LearnerSnapshot};
 
 use crate::world::car::Pose;
 use crate::world::scenario::Scenario;
@@ -72,6 +72,9 @@ pub struct RunConfig {
     pub random_answers: Option<f32>,
     /// Multiplies the scenario teacher's weights (its scale; the reproduction's scale sweep).
     pub teacher_scale: Option<f32>,
+    /// Start from this learner, parameters and state (`run --load-learner`), instead of a fresh
+    /// one of `learner`; online modes only. Its parameters must be `learner`.
+    pub initial: Option<LearnerSnapshot>,
 }
 
 /// A small random offset of the start pose, drawn once per run from the run's seed, so that
@@ -144,6 +147,7 @@ impl RunConfig {
             statements: None,
             random_answers: None,
             teacher_scale: None,
+            initial: None,
         }
     }
 
@@ -217,6 +221,19 @@ impl RunConfig {
         self.learner
             .check()
             .map_err(|e| anyhow::anyhow!("learner parameters: {e}"))?;
+        if let Some(s) = &self.initial {
+            ensure!(
+                matches!(self.mode, Mode::Online(_)),
+                "a loaded learner is taught online (action, preference or semantic feedback), not {}",
+                self.mode.name()
+            );
+            ensure!(
+                s.params == self.learner,
+                "the loaded learner's parameters differ from the run's learner"
+            );
+            firmware_core::Learner::restore(s)
+                .map_err(|e| anyhow::anyhow!("the loaded learner: {e}"))?;
+        }
         Ok(())
     }
 }
