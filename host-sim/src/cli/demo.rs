@@ -48,14 +48,14 @@ pub(crate) fn demo(args: &DemoArgs) -> Result<()> {
         learner,
         ..SyntheticConfig::default()
     };
-    println!(
+    outln!(
         "synthetic teacher: {} rounds, seed {}, threshold {}, {:.0}% random answers, learner {}",
         config.steps,
         config.seed,
         config.threshold,
         100.0 * config.noise,
         args.learner.name()
-    );
+    )?;
     let report = synthetic::run(&config)?;
     // Row boundaries spaced geometrically, so the fast early learning gets rows of its own.
     let mut bounds = vec![0usize];
@@ -66,10 +66,12 @@ pub(crate) fn demo(args: &DemoArgs) -> Result<()> {
         }
     }
     let random_mean = report.random_loss.iter().map(|&x| x as f64).sum::<f64>() / args.steps as f64;
-    println!(
+    outln!(
         "{:>13}  {:>11}  {:>11}  latent loss (40 marks = a random policy's)",
-        "rounds", "mean loss", "corrections"
-    );
+        "rounds",
+        "mean loss",
+        "corrections"
+    )?;
     let mut corrections = 0;
     for w in bounds.windows(2) {
         let (start, end) = (w[0], w[1]);
@@ -77,14 +79,14 @@ pub(crate) fn demo(args: &DemoArgs) -> Result<()> {
         let mean = chunk.iter().map(|&x| x as f64).sum::<f64>() / chunk.len() as f64;
         corrections += report.corrected[start..end].iter().filter(|&&c| c).count();
         let bar = ((40.0 * mean / random_mean).round() as usize).min(60);
-        println!(
+        outln!(
             "{:>6}-{:<6}  {:>11.5}  {:>11}  {}",
             start,
             end - 1,
             mean,
             corrections,
             "#".repeat(bar)
-        );
+        )?;
     }
     let tail = (args.steps / 10).max(1);
     let tail_mean = report.latent_loss[args.steps - tail..]
@@ -92,12 +94,12 @@ pub(crate) fn demo(args: &DemoArgs) -> Result<()> {
         .map(|&x| x as f64)
         .sum::<f64>()
         / tail as f64;
-    println!(
+    outln!(
         "last {tail} rounds: mean latent loss {tail_mean:.5} ({:.3}% of a random policy's {random_mean:.3}); {} corrections in all",
         100.0 * tail_mean / random_mean,
         report.corrections()
-    );
-    println!("teacher weights {:?}", report.teacher);
-    println!("learned weights {:?}", report.weights);
+    )?;
+    outln!("teacher weights {:?}", report.teacher)?;
+    outln!("learned weights {:?}", report.weights)?;
     Ok(())
 }

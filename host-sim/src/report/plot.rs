@@ -152,7 +152,8 @@ impl Raster {
         r
     }
 
-    fn to_px(&self, x: f64, y: f64) -> (i64, i64) {
+    /// The pixel (column, row from the top) of the world point `(x, y)`.
+    pub fn to_px(&self, x: f64, y: f64) -> (i64, i64) {
         // Map yaw is ignored in drawings (all shipped maps have yaw 0).
         let o = self.grid.origin();
         let res = self.grid.resolution() / self.scale as f64;
@@ -258,34 +259,4 @@ impl Raster {
             .map_err(|e| anyhow!("{}: {e}", out.display()))?;
         Ok(())
     }
-}
-
-/// Reads the `x`, `y` columns of a `steps.csv` written by `host-sim run`.
-pub fn read_trace(csv: &Path) -> Result<Vec<(f64, f64)>> {
-    let text = std::fs::read_to_string(csv).map_err(|e| anyhow!("{}: {e}", csv.display()))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines
-        .next()
-        .ok_or_else(|| anyhow!("{}: empty", csv.display()))?
-        .split(',')
-        .collect();
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| *h == name)
-            .ok_or_else(|| anyhow!("{}: no column {name:?}", csv.display()))
-    };
-    let (cx, cy) = (col("x")?, col("y")?);
-    let mut out = Vec::new();
-    for (i, line) in lines.enumerate() {
-        let f: Vec<&str> = line.split(',').collect();
-        let parse = |c: usize| -> Result<f64> {
-            f.get(c)
-                .and_then(|v| v.parse::<f64>().ok())
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| anyhow!("{}: line {}: bad number", csv.display(), i + 2))
-        };
-        out.push((parse(cx)?, parse(cy)?));
-    }
-    Ok(out)
 }
