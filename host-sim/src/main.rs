@@ -82,7 +82,7 @@ enum Command {
     /// Draw a scenario's map, path and objects into a PNG, optionally with the poses of a run,
     /// or a run as an animation (--run DIR --animate OUT).
     Draw(cli::inspect::DrawArgs),
-    /// Reproduce the paper's section 6: the variety, noise (and sigma sweep) and threshold
+    /// Reproduce the paper's section 6: the variety, noise (and σ sweep) and threshold
     /// experiments and the path figures, trials in parallel.
     ///
     /// Writes into DIR: variety.csv, noise.csv, thresholds.csv (per step: mean and standard

@@ -211,6 +211,13 @@ fn lattice_list_and_demo_still_work() {
     assert!(o.status.success(), "{}", stderr(&o));
     let text = std::fs::read_to_string(&svg).unwrap();
     assert!(text.starts_with("<svg") && text.matches("<polyline").count() >= 64);
+    // Its axes say 0.0, never -0.0, and a legend names the two families.
+    assert!(text.contains("\n0.0\n") && !text.contains("-0.0"), "{text}");
+    assert!(
+        text.contains("cruise: actions 0–48, 1.0 m at 1.0 m/s"),
+        "{text}"
+    );
+    assert!(text.contains("creep: actions 49–63, 0.5 m"), "{text}");
     let o = host_sim(&["list"]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("stairs-chairs"));
     let png = tmp.path().join("doors.png");
