@@ -10,6 +10,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use firmware_core::{LearnerKind, LearnerParams};
+use host_sim::checks;
 use host_sim::teach::experiment::{self, InProcessLink, Mode, RunConfig};
 use host_sim::world::registry;
 use host_sim::world::teacher::StatementSet;
@@ -99,15 +100,17 @@ enum Command {
     /// answers, in every world (docs/learners.md), and the learner `run` uses by default for
     /// each kind of feedback, chosen from it by a stated rule. Writes Markdown.
     Learners {
-        /// Seeds per cell.
-        #[arg(long, default_value_t = 3)]
+        /// Seeds per cell, 1 to 100.
+        #[arg(long, default_value_t = 3, allow_negative_numbers = true,
+              value_parser = checks::count_flag(host_sim::teach::learners::SEEDS))]
         seeds: u32,
-        /// Steps per run.
-        #[arg(long, default_value_t = 5_000)]
+        /// Steps per run, 10 to 10 000 000.
+        #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+              value_parser = checks::count_flag(host_sim::teach::learners::STEPS))]
         steps: u32,
         /// Worker threads (default: one per core). The output does not depend on it.
-        #[arg(long)]
-        jobs: Option<usize>,
+        #[arg(long, allow_negative_numbers = true, value_parser = checks::count_flag(cli::JOBS))]
+        jobs: Option<u32>,
         /// The Markdown file to write.
         #[arg(long, default_value = "out/learners.md")]
         out: PathBuf,
@@ -131,8 +134,9 @@ enum Command {
         /// Scenario name or file.
         #[arg(long, default_value = "doors")]
         scenario: String,
-        /// Steps to simulate.
-        #[arg(long, default_value_t = 5_000)]
+        /// Steps to simulate, 1 to 10 000 000.
+        #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+              value_parser = checks::count_flag(1..=checks::MAX_STEPS))]
         steps: u32,
     },
 }
@@ -149,27 +153,30 @@ struct RunArgs {
     /// teacher's own policy drives, frozen).
     #[arg(long, default_value = "action", value_parser = parse_mode)]
     feedback: Mode,
-    /// Number of control ticks (0.1 s each).
-    #[arg(long, default_value_t = 5_000)]
+    /// Number of control ticks (0.1 s each), 1 to 10 000 000.
+    #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+          value_parser = checks::count_flag(1..=checks::MAX_STEPS))]
     steps: u32,
     /// Seed of the teacher's noise and random queries; the same seed gives the same CSV bytes.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// The teacher corrects when its perceived latent loss of the learner's action exceeds
-    /// this (default: the scenario's, 1.0 unless it says otherwise).
-    #[arg(long, allow_negative_numbers = true)]
-    threshold: Option<f32>,
-    /// Standard deviation of the Gaussian noise on every latent loss the teacher perceives
-    /// (default: the scenario's, 0 unless it says otherwise).
-    #[arg(long, allow_negative_numbers = true)]
-    noise: Option<f32>,
+    /// this, 0 to 1000 (default: the scenario's, 1.0 unless it says otherwise).
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::threshold))]
+    threshold: Option<f64>,
+    /// Standard deviation σ of the Gaussian noise on every latent loss the teacher perceives,
+    /// 0 to 1000 (default: the scenario's, 0 unless it says otherwise).
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::noise))]
+    noise: Option<f64>,
     /// Online learner: ogd, ogd-decaying, averaged-ogd, adagrad or coactive. Default: the one
     /// docs/learners.md chose for the kind of feedback (`host-sim learners`).
     #[arg(long, value_parser = parse_kind, conflicts_with = "load_learner")]
     learner: Option<LearnerKind>,
-    /// Step size (default: the learner's own: 0.01 for the OGD family, 0.1 AdaGrad, 1 coactive).
-    #[arg(long, allow_negative_numbers = true, conflicts_with = "load_learner")]
-    step: Option<f32>,
+    /// Step size, in (0, 1000] (default: the learner's own: 0.01 for the OGD family, 0.1
+    /// AdaGrad, 1 coactive).
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "load_learner",
+          value_parser = checks::flag(checks::step_size))]
+    step: Option<f64>,
     /// Start from the learner in this file (parameters and state, as `--save-learner` wrote
     /// it) instead of a fresh one: teach it further, or test it in another household. Online
     /// feedback only; a file of another format version, or a corrupted one, is refused.
@@ -186,8 +193,8 @@ struct RunArgs {
     statements: StatementSet,
     /// Probability that a correction answers at random (a random action, statements towards a
     /// random action, or a coin's preference), drawn from the run's seed. Default 0.
-    #[arg(long, allow_negative_numbers = true)]
-    random_answers: Option<f32>,
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::probability))]
+    random_answers: Option<f64>,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out")]
     out: PathBuf,
@@ -292,7 +299,7 @@ fn run_config(args: &RunArgs) -> Result<RunConfig> {
         .unwrap_or_else(|| host_sim::teach::learners::default_learner(args.feedback));
     let mut learner = LearnerParams::new(kind);
     if let Some(step) = args.step {
-        learner = learner.with_step(step);
+        learner = learner.with_step(step as f32);
     }
     let initial = match &args.load_learner {
         Some(path) => {
@@ -306,11 +313,11 @@ fn run_config(args: &RunArgs) -> Result<RunConfig> {
         mode: args.feedback,
         steps: args.steps,
         seed: args.seed,
-        threshold: args.threshold,
-        noise: args.noise,
+        threshold: args.threshold.map(|t| t as f32),
+        noise: args.noise.map(|n| n as f32),
         learner,
         statements: Some(args.statements),
-        random_answers: args.random_answers,
+        random_answers: args.random_answers.map(|p| p as f32),
         initial,
         ..RunConfig::new(Arc::new(scenario))
     };

@@ -145,15 +145,15 @@ fn bad_input_is_a_clear_error_and_a_failure_exit() {
         ),
         (
             &["run", "--steps", "0", "--out", out],
-            "steps must be in 1..=",
+            "'--steps <STEPS>': must be in 1..=10000000, got 0",
         ),
         (
             &["run", "--noise", "-1", "--out", out],
-            "noise must be finite and >= 0",
+            "'--noise <NOISE>': must be in [0, 1000], got -1",
         ),
         (
             &["run", "--threshold", "NaN", "--out", out],
-            "threshold must be finite",
+            "'--threshold <THRESHOLD>': must be in [0, 1000], got NaN",
         ),
         (
             &["run", "--feedback", "shouting", "--out", out],
@@ -165,7 +165,7 @@ fn bad_input_is_a_clear_error_and_a_failure_exit() {
         ),
         (
             &["run", "--step", "-0.5", "--out", out],
-            "learner parameters",
+            "'--step <STEP>': must be in (0, 1000], got -0.5",
         ),
     ];
     for (args, want) in cases {
@@ -571,4 +571,173 @@ fn crc16(bytes: &[u8]) -> u16 {
         }
     }
     crc
+}
+
+/// doors.toml with its teacher's `key = value` replaced, written into `dir`.
+fn doors_with(dir: &std::path::Path, key: &str, value: &str) -> std::path::PathBuf {
+    let scenarios = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenarios");
+    let text = std::fs::read_to_string(scenarios.join("doors.toml")).unwrap();
+    let maps = scenarios.join("maps/doors.yaml");
+    let text = text
+        .replace(
+            "map = \"maps/doors.yaml\"",
+            &format!("map = {:?}", maps.display().to_string()),
+        )
+        .replace(
+            &format!("{key} = {}", if key == "noise" { "0.0" } else { "1.0" }),
+            &format!("{key} = {value}"),
+        );
+    assert!(text.contains(&format!("{key} = {value}")));
+    let file = dir.join(format!("{key}.toml"));
+    std::fs::write(&file, text).unwrap();
+    file
+}
+
+/// One set of checks, one wording: a bad threshold or noise says the same from a flag and from
+/// a scenario file.
+#[test]
+fn a_bad_value_says_the_same_from_a_flag_and_from_a_scenario() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("o");
+    for (key, value, want) in [
+        ("threshold", "1e30", "must be in [0, 1000], got 1e30"),
+        ("noise", "1e30", "must be in [0, 1000], got 1e30"),
+        ("threshold", "-1", "must be in [0, 1000], got -1"),
+        ("noise", "nan", "must be in [0, 1000], got NaN"),
+        ("threshold", "1001", "must be in [0, 1000], got 1001"),
+    ] {
+        let flag = format!("--{key}");
+        let o = host_sim(&["run", &flag, value, "--out", out.to_str().unwrap()]);
+        assert!(!o.status.success(), "{flag} {value}");
+        let from_flag = stderr(&o);
+        assert!(
+            from_flag.contains(&format!("'{value}' for '{flag} <")),
+            "{from_flag}"
+        );
+        let file = doors_with(tmp.path(), key, value);
+        let o = host_sim(&[
+            "run",
+            "--scenario",
+            file.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(!o.status.success(), "teacher.{key} = {value}");
+        let from_file = stderr(&o);
+        assert!(
+            from_file.contains(&format!("{key}.toml: teacher.{key}: ")),
+            "{from_file}"
+        );
+        // The same words after the value's name.
+        let said = |e: &str, after: &str| {
+            let rest = &e[e.find(after).unwrap() + after.len()..];
+            rest.lines().next().unwrap().to_string()
+        };
+        assert_eq!(
+            said(&from_flag, &format!("{flag} <{}>': ", key.to_uppercase())),
+            want
+        );
+        assert_eq!(said(&from_file, &format!("teacher.{key}: ")), want);
+        assert!(!out.exists());
+    }
+}
+
+/// Each number a flag takes is checked before the command starts, against its real limits,
+/// with the number named.
+#[test]
+fn flags_are_checked_before_anything_runs() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("o");
+    let o_ = out.to_str().unwrap();
+    for (args, want) in [
+        (
+            &["run", "--steps", "99999999999", "--out", o_][..],
+            "must be in 1..=10000000, got 99999999999",
+        ),
+        (
+            &["run", "--steps", "-3", "--out", o_],
+            "must be in 1..=10000000, got -3",
+        ),
+        (
+            &["run", "--step", "nan", "--out", o_],
+            "'--step <STEP>': must be in (0, 1000], got NaN",
+        ),
+        (
+            &["run", "--random-answers", "1.5", "--out", o_],
+            "must be in [0, 1], got 1.5",
+        ),
+        (
+            &["demo", "--noise", "-1"],
+            "'--noise <NOISE>': must be in [0, 1], got -1",
+        ),
+        (
+            &["demo", "--threshold", "nan"],
+            "'--threshold <THRESHOLD>': must be in [0, 1000], got NaN",
+        ),
+        (&["demo", "--steps", "0"], "must be in 1..=10000000, got 0"),
+        (&["bench", "--steps", "0"], "must be in 1..=10000000, got 0"),
+        (
+            &["reproduce", "--steps", "5", "--out", o_],
+            "must be in 10..=10000000, got 5",
+        ),
+        (
+            &["reproduce", "--jobs", "0", "--out", o_],
+            "'--jobs <JOBS>': must be in 1..=1024, got 0",
+        ),
+        (
+            &["reproduce", "--teacher-scale", "-2", "--out", o_],
+            "must be in (0, 1000], got -2",
+        ),
+        (
+            &["learners", "--seeds", "101", "--out", o_],
+            "must be in 1..=100, got 101",
+        ),
+    ] {
+        let o = host_sim(args);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            stderr(&o).contains(want),
+            "{args:?}: wanted {want:?} in {}",
+            stderr(&o)
+        );
+        assert!(o.stdout.is_empty(), "{args:?} printed before its error");
+        assert!(!out.exists(), "{args:?}");
+    }
+}
+
+/// `merge` of shards of two grids says which grids, in words.
+#[test]
+fn merge_names_two_grids_in_words() {
+    let tmp = tempfile::tempdir().unwrap();
+    let shard = |steps: &str, index: &str| {
+        let dir = tmp.path().join(format!("s{steps}-{index}"));
+        let o = host_sim(&[
+            "reproduce",
+            "--trials",
+            "1",
+            "--steps",
+            steps,
+            "--shard",
+            &format!("{index}/40"),
+            "--out",
+            dir.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        dir
+    };
+    let (a, b) = (shard("30", "0"), shard("20", "1"));
+    let o = host_sim(&[
+        "merge",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--out",
+        tmp.path().join("m").to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("a different grid (1 trials × 20 steps, seed 0, 40 shards) from the first folder's (1 trials × 30 steps, seed 0, 40 shards)"),
+        "{e}"
+    );
+    assert!(!e.contains("Options {"), "{e}");
 }

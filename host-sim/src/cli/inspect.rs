@@ -142,13 +142,7 @@ pub(crate) fn draw(args: &DrawArgs) -> Result<()> {
             fps: args.fps,
             ..AnimateOptions::default()
         };
-        let title = run
-            .steps_csv
-            .parent()
-            .and_then(|d| d.file_name())
-            .map(|d| format!("{} ({})", s.name, d.to_string_lossy()))
-            .unwrap_or_else(|| s.name.clone());
-        let a = animation::animate(&s, rows, &title, &o, file)?;
+        let a = animation::animate(&s, rows, &run.title, &o, file)?;
         outln!(
             "wrote {}: {} frames of {} × {} pixels, one per {} tick{} at {} frames/s, {} bytes",
             file.display(),
@@ -165,9 +159,6 @@ pub(crate) fn draw(args: &DrawArgs) -> Result<()> {
 }
 
 pub(crate) fn bench(scenario: &str, steps: u32) -> Result<()> {
-    if steps == 0 {
-        bail!("--steps must be positive");
-    }
     let s = Arc::new(load_scenario(scenario)?);
     let config = RunConfig {
         steps,

@@ -7,7 +7,7 @@ use anyhow::{Context, Result};
 
 use super::{prepare_out, progress_bar, worker_pool};
 
-pub(crate) fn learners(seeds: u32, steps: u32, jobs: Option<usize>, out: &Path) -> Result<()> {
+pub(crate) fn learners(seeds: u32, steps: u32, jobs: Option<u32>, out: &Path) -> Result<()> {
     use host_sim::teach::learners::{self, Options};
     let o = Options { seeds, steps };
     let pool = worker_pool(jobs)?;

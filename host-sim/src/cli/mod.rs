@@ -4,7 +4,7 @@
 use std::io::{IsTerminal, Write};
 use std::path::Path;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use firmware_core::LearnerKind;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 
@@ -108,14 +108,17 @@ impl Drop for OutDir {
     }
 }
 
+/// The worker threads `--jobs` accepts.
+pub(crate) const JOBS: std::ops::RangeInclusive<u32> = 1..=1024;
+
 /// The rayon pool of `--jobs` threads (default: one per core).
-pub(crate) fn worker_pool(jobs: Option<usize>) -> Result<rayon::ThreadPool> {
-    if jobs == Some(0) {
-        bail!("--jobs must be positive");
+pub(crate) fn worker_pool(jobs: Option<u32>) -> Result<rayon::ThreadPool> {
+    if let Some(n) = jobs {
+        host_sim::checks::count(n.into(), JOBS).map_err(host_sim::checks::named("--jobs"))?;
     }
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = jobs {
-        pool = pool.num_threads(n);
+        pool = pool.num_threads(n as usize);
     }
     pool.build().context("cannot start the worker threads")
 }

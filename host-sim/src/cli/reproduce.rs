@@ -5,22 +5,27 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 
+use host_sim::checks;
+use host_sim::report::grid::{GRID_STEPS, TRIALS};
+
 use super::{prepare_out, progress_bar, worker_pool};
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct ReproduceArgs {
-    /// Trials per setting (trial t has seed SEED + t).
-    #[arg(long, default_value_t = 10)]
+    /// Trials per setting (trial t has seed SEED + t), 1 to 10 000.
+    #[arg(long, default_value_t = 10, allow_negative_numbers = true,
+          value_parser = checks::count_flag(TRIALS))]
     trials: u32,
-    /// Control ticks per trial.
-    #[arg(long, default_value_t = 5_000)]
+    /// Control ticks per trial, 10 to 10 000 000.
+    #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+          value_parser = checks::count_flag(GRID_STEPS))]
     steps: u32,
     /// Seed of trial 0.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads (default: one per core). The outputs do not depend on it.
-    #[arg(long)]
-    jobs: Option<usize>,
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::count_flag(super::JOBS))]
+    jobs: Option<u32>,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out/reproduce")]
     out: PathBuf,
@@ -28,27 +33,30 @@ pub(crate) struct ReproduceArgs {
     /// or a Kubernetes JOB_COMPLETION_INDEX) and write its raw results for `host-sim merge`.
     #[arg(long, value_name = "INDEX/COUNT")]
     shard: Option<host_sim::report::Shard>,
-    /// Multiply every teacher's weights by this factor (default 1: the calibrated teachers of
-    /// docs/reproduction/CALIBRATION.md).
-    #[arg(long, default_value_t = 1.0)]
-    teacher_scale: f32,
+    /// Multiply every teacher's weights by this factor, in (0, 1000] (default 1: the calibrated
+    /// teachers of docs/reproduction/CALIBRATION.md).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true,
+          value_parser = checks::flag(checks::teacher_scale))]
+    teacher_scale: f64,
 }
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct ScaleSweepArgs {
     /// Trials per setting (fewer than the report's 10 keeps the five grids quick; the output
-    /// says how many).
-    #[arg(long, default_value_t = 5)]
+    /// says how many), 1 to 10 000.
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true,
+          value_parser = checks::count_flag(TRIALS))]
     trials: u32,
-    /// Control ticks per trial.
-    #[arg(long, default_value_t = 5_000)]
+    /// Control ticks per trial, 10 to 10 000 000.
+    #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+          value_parser = checks::count_flag(GRID_STEPS))]
     steps: u32,
     /// Seed of trial 0.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads (default: one per core). The output does not depend on it.
-    #[arg(long)]
-    jobs: Option<usize>,
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::count_flag(super::JOBS))]
+    jobs: Option<u32>,
     /// The Markdown file to write.
     #[arg(long, default_value = "out/SCALE_SWEEP.md")]
     out: PathBuf,
@@ -60,7 +68,7 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
         trials: args.trials,
         steps: args.steps,
         seed: args.seed,
-        teacher_scale: args.teacher_scale,
+        teacher_scale: args.teacher_scale as f32,
     };
     o.check()?;
     let shard = args.shard.unwrap_or(Shard::WHOLE);

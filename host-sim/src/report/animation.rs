@@ -429,10 +429,7 @@ pub fn animation_bytes(
         strip.bar(&mut bg, &l, col, ahead);
     }
     bg.text(
-        &format!(
-            "{title}: latent loss per tick (bars cut at {:.2})",
-            strip.top
-        ),
+        &format!("{title}; latent loss (cut at {:.2})", strip.top),
         2,
         l.strip_y as i64 + 2,
         ink.text,

@@ -42,6 +42,9 @@ pub struct RunFolder {
     pub scenario: Option<String>,
     /// The scenario's file, from `summary.json` (runs before it was recorded have none).
     pub scenario_file: Option<PathBuf>,
+    /// What the run was, in words: "doors, action feedback, seed 0" from `summary.json`, or
+    /// the folder's name without one.
+    pub title: String,
 }
 
 impl RunFolder {
@@ -61,7 +64,12 @@ impl RunFolder {
             );
         }
         let summary = dir.join("summary.json");
-        let (scenario, scenario_file) = if summary.is_file() {
+        let folder = dir
+            .canonicalize()
+            .ok()
+            .and_then(|d| d.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .unwrap_or_else(|| "run".into());
+        let (scenario, scenario_file, title) = if summary.is_file() {
             let text = std::fs::read_to_string(&summary)
                 .with_context(|| format!("{}: cannot read", summary.display()))?;
             let v: serde_json::Value = serde_json::from_str(&text)
@@ -70,17 +78,26 @@ impl RunFolder {
             let name = config["scenario"]
                 .as_str()
                 .ok_or_else(|| anyhow!("{}: no config.scenario", summary.display()))?;
+            let title = match (config["feedback"].as_str(), config["seed"].as_u64()) {
+                (Some(f @ ("action" | "preference" | "semantic")), Some(seed)) => {
+                    format!("{name}, {f} feedback, seed {seed}")
+                }
+                (Some(f), Some(seed)) => format!("{name}, {f}, seed {seed}"),
+                _ => name.to_string(),
+            };
             (
                 Some(name.to_string()),
                 config["scenario_file"].as_str().map(PathBuf::from),
+                title,
             )
         } else {
-            (None, None)
+            (None, None, folder)
         };
         Ok(Self {
             steps_csv,
             scenario,
             scenario_file,
+            title,
         })
     }
 

@@ -56,6 +56,7 @@ use firmware_core::{FEATURE_COUNT, Feature, Weights};
 use serde::Deserialize;
 use thiserror::Error;
 
+use crate::checks;
 use crate::world::car::{CarParams, Pose};
 use crate::world::map::{MapError, OccupancyGrid};
 use crate::world::path::RefPath;
@@ -474,7 +475,8 @@ fn parse_teacher(raw: Option<RawTeacher>, path: &Path) -> Result<TeacherSpec, Sc
             for (f, v) in given {
                 if let Some(v) = v {
                     let field = format!("teacher.weights.{}", f.name());
-                    weights[f.index()] = finite(path, field, v, 1.0e3)? as f32;
+                    weights[f.index()] =
+                        checks::teacher_weight(v).map_err(|m| err(path, field, m))? as f32;
                 }
             }
             if weights.iter().all(|&x| x == 0.0) {
@@ -483,25 +485,13 @@ fn parse_teacher(raw: Option<RawTeacher>, path: &Path) -> Result<TeacherSpec, Sc
             TeacherSpec::with_weights(None, weights)
         }
     };
+    // The same checks, in the same words, as the command line's --threshold and --noise.
     if let Some(t) = raw.threshold {
-        if !(t.is_finite() && (0.0..=1.0e3).contains(&t)) {
-            return Err(err(
-                path,
-                "teacher.threshold",
-                format!("must be in [0, 1000], got {t}"),
-            ));
-        }
-        spec.threshold = t as f32;
+        spec.threshold =
+            checks::threshold(t).map_err(|m| err(path, "teacher.threshold", m))? as f32;
     }
     if let Some(s) = raw.noise {
-        if !(s.is_finite() && (0.0..=1.0e3).contains(&s)) {
-            return Err(err(
-                path,
-                "teacher.noise",
-                format!("must be in [0, 1000], got {s}"),
-            ));
-        }
-        spec.noise = s as f32;
+        spec.noise = checks::noise(s).map_err(|m| err(path, "teacher.noise", m))? as f32;
     }
     Ok(spec)
 }
