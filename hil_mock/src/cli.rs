@@ -164,6 +164,8 @@ pub fn run_from(args: impl IntoIterator<Item = OsString>) -> ExitCode {
     };
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
+        // Whoever read standard output has gone (`hil_mock bench-latency | head -1`).
+        Err(e) if closed_stdout(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("hil_mock: error: {e:#}");
             ExitCode::FAILURE
@@ -175,12 +177,11 @@ fn run(command: Command) -> Result<()> {
     match command {
         Command::Keygen { file } => {
             key::keygen(&file)?;
-            println!(
+            say(format_args!(
                 "wrote a new key to {}; give it to the car (hil_mock serve --key, or the \
                  firmware's CAR_KEY_FILE) and to its hosts (host-sim run --key)",
                 file.display()
-            );
-            Ok(())
+            ))
         }
         Command::Serve {
             link,
@@ -240,8 +241,11 @@ fn run(command: Command) -> Result<()> {
             let frames = read_log(&log)?;
             let mut link = address.open(Duration::from_secs(10))?;
             let n = replay(&frames, &mut *link, realtime)?;
-            println!("replayed {n} frames from {} to {address}", log.display());
-            Ok(())
+            let frames = if n == 1 { "frame" } else { "frames" };
+            say(format_args!(
+                "replayed {n} {frames} from {} to {address}",
+                log.display()
+            ))
         }
         Command::BenchLatency { link, count } => {
             if link != "udp" {
@@ -251,24 +255,41 @@ fn run(command: Command) -> Result<()> {
                 bail!("--count must be at least 1");
             }
             let r = bench_latency(count)?;
-            println!(
+            say(format_args!(
                 "{} observation → action round trips over UDP loopback (CAN FD frames, {} per observation): \
                  p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
                 r.count, r.frames_per_observation, r.link.p50_us, r.link.p99_us, r.link.max_us
-            );
-            println!(
+            ))?;
+            say(format_args!(
                 "{} plain UDP ping-pongs of {PING_BYTES} bytes on the same loopback, interleaved: \
                  p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
                 r.count, r.ping.p50_us, r.ping.p99_us, r.ping.max_us
-            );
-            println!(
+            ))?;
+            say(format_args!(
                 "the link over the ping-pong: p50 {:.1}×, p99 {:.1}×",
                 r.link.p50_us / r.ping.p50_us,
                 r.link.p99_us / r.ping.p99_us
-            );
-            Ok(())
+            ))
         }
     }
+}
+
+/// Writes one line to standard output, returning the error of a closed pipe instead of
+/// panicking as `println!` does.
+fn say(line: std::fmt::Arguments<'_>) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{line}")?;
+    out.flush()?;
+    Ok(())
+}
+
+/// Whether `e` is standard output's reader gone (a broken pipe): the command then ends quietly
+/// with success.
+fn closed_stdout(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// Opens a link for serving; a listening address on port 0 gets an ephemeral port. Prints
@@ -278,17 +299,14 @@ fn open_serving(
     idle_timeout: Duration,
     connect_timeout: Duration,
 ) -> Result<Box<dyn Link>> {
-    let say = |what: &str, a: &str| {
-        println!("{what} {a}");
-        let _ = std::io::stdout().flush();
-    };
+    let say = |what: &str, a: &str| say(format_args!("{what} {a}"));
     Ok(match address {
         LinkAddress::UdpListen(a) => {
             let link = UdpLink::listen(*a)?;
             let SocketAddr::V4(local) = link.local_addr()? else {
                 bail!("udp bound to a non-IPv4 address");
             };
-            say("listening on", &LinkAddress::UdpListen(local).to_string());
+            say("listening on", &LinkAddress::UdpListen(local).to_string())?;
             Box::new(link)
         }
         LinkAddress::SlcanTcpListen(a) => {
@@ -301,12 +319,12 @@ fn open_serving(
             say(
                 "listening on",
                 &LinkAddress::SlcanTcpListen(local).to_string(),
-            );
+            )?;
             Box::new(SlcanListener::from_listener(listener, idle_timeout)?)
         }
         other => {
             let link = other.open(connect_timeout)?;
-            say("connected to", &other.to_string());
+            say("connected to", &other.to_string())?;
             link
         }
     })
@@ -410,7 +428,8 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
             },
             &car_key,
             epoch,
-        );
+        )
+        .without_event_lines();
         server.run(&mut car_link, &flag)
     });
     let (mut ping, echo) = ping_pong()?;

@@ -166,7 +166,10 @@ pub fn run_with(
     config.check()?;
     let spec = config.teacher();
     let (initial, bc) = match config.mode {
-        Mode::Online(_) => (learner_with(config.learner, config.learner.initial)?, None),
+        Mode::Online(_) => match config.initial {
+            Some(snapshot) => (snapshot, None),
+            None => (learner_with(config.learner, config.learner.initial)?, None),
+        },
         Mode::Teacher => (learner_with(config.learner, spec.weights)?, None),
         Mode::BehaviourCloning => {
             let (snap, fit) = behaviour_cloning(config)?;

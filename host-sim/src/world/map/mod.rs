@@ -150,9 +150,9 @@ pub struct OccupancyGrid {
 impl OccupancyGrid {
     /// Loads the map described by the YAML file at `path`.
     pub fn load(path: &Path) -> Result<Self, MapError> {
-        let text = std::fs::read_to_string(path).map_err(|source| MapError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| MapError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         let meta = MapMeta::parse(&text, path)?;
         Self::from_meta(&meta, path)
@@ -160,9 +160,9 @@ impl OccupancyGrid {
 
     /// Loads the image `meta` names; `yaml` is the YAML file (for messages).
     pub fn from_meta(meta: &MapMeta, yaml: &Path) -> Result<Self, MapError> {
-        let bytes = std::fs::read(&meta.image).map_err(|source| MapError::Io {
+        let bytes = std::fs::read(&meta.image).map_err(|error| MapError::Io {
             path: meta.image.clone(),
-            source,
+            error,
         })?;
         let ext = meta
             .image
