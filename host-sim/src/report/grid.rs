@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::sync::Arc;
 
-use anyhow::{Context, Result, ensure};
+use anyhow::{Context, Result};
 use firmware_core::{LearnerParams, PAPER_STEP};
 use rayon::prelude::*;
 
@@ -36,17 +36,23 @@ pub const PAPER_THRESHOLDS: [f32; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 pub const PATH_TICKS: u32 = 1_500;
 /// Largest number of trials per setting.
 pub const MAX_TRIALS: u32 = 10_000;
+/// The trials per setting a grid accepts (`--trials`).
+pub const TRIALS: std::ops::RangeInclusive<u32> = 1..=MAX_TRIALS;
+/// The steps per trial a grid accepts (`--steps`): at least ten, so that a tenth is a step.
+pub const GRID_STEPS: std::ops::RangeInclusive<u32> = 10..=MAX_STEPS;
 /// Version of the shard files (3: the worlds' trials in `worlds.csv`).
 pub const SHARD_FORMAT: u32 = 3;
 /// Generated worlds per teacher by default (`--worlds`): with the paper's grid, what a full
-/// reproduction runs in about a minute on two cores (README, "the reproduction's time").
+/// reproduction runs in about a minute on two cores (README, "Reproducing the paper").
 pub const DEFAULT_WORLDS: u32 = 8;
 /// Trials per setting in each world by default (`--world-trials`).
 pub const DEFAULT_WORLD_TRIALS: u32 = 2;
 /// Most generated worlds per teacher.
 pub const MAX_WORLDS: u32 = 100_000;
-/// Most trials per setting in a world.
-pub const MAX_WORLD_TRIALS: u32 = 100;
+/// The generated worlds per teacher a grid accepts (`--worlds`; 0: none).
+pub const WORLDS: std::ops::RangeInclusive<u32> = 0..=MAX_WORLDS;
+/// The trials per setting in a world a grid accepts (`--world-trials`).
+pub const WORLD_TRIALS: std::ops::RangeInclusive<u32> = 1..=100;
 /// The factors of the teachers' scale the scale sweep runs the claims at.
 pub const SWEEP_FACTORS: [f32; 5] = [0.25, 0.5, 1.0, 2.0, 4.0];
 
@@ -229,33 +235,13 @@ impl Options {
 
     /// Checks the numbers.
     pub fn check(&self) -> Result<()> {
-        ensure!(
-            self.teacher_scale.is_finite()
-                && self.teacher_scale > 0.0
-                && self.teacher_scale <= 1.0e3,
-            "--teacher-scale must be in (0, 1000], got {}",
-            self.teacher_scale
-        );
-        ensure!(
-            (1..=MAX_TRIALS).contains(&self.trials),
-            "--trials must be in 1..={MAX_TRIALS}, got {}",
-            self.trials
-        );
-        ensure!(
-            (10..=MAX_STEPS).contains(&self.steps),
-            "--steps must be in 10..={MAX_STEPS}, got {}",
-            self.steps
-        );
-        ensure!(
-            self.worlds <= MAX_WORLDS,
-            "--worlds must be in 0..={MAX_WORLDS}, got {}",
-            self.worlds
-        );
-        ensure!(
-            (1..=MAX_WORLD_TRIALS).contains(&self.world_trials),
-            "--world-trials must be in 1..={MAX_WORLD_TRIALS}, got {}",
-            self.world_trials
-        );
+        use crate::checks;
+        use crate::checks::named;
+        checks::teacher_scale(self.teacher_scale.into()).map_err(named("--teacher-scale"))?;
+        checks::count(self.trials.into(), TRIALS).map_err(named("--trials"))?;
+        checks::count(self.steps.into(), GRID_STEPS).map_err(named("--steps"))?;
+        checks::count(self.worlds.into(), WORLDS).map_err(named("--worlds"))?;
+        checks::count(self.world_trials.into(), WORLD_TRIALS).map_err(named("--world-trials"))?;
         Ok(())
     }
 }
