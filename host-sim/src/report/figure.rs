@@ -234,7 +234,9 @@ pub fn write_pictures(
     let cols = cols.max(1);
     // Where each picture goes: rows of `cols`, each as tall as its tallest picture.
     let mut at = Vec::with_capacity(pictures.len());
-    let (mut w, mut h) = (PAD, HEAD);
+    // At least as wide as the title (16 px a character) and the legend (8 px).
+    let text = (16 * title.chars().count()).max(8 * legend.chars().count());
+    let (mut w, mut h) = (2 * PAD + text, HEAD);
     for row in pictures.chunks(cols) {
         let mut x = PAD;
         for p in row {
@@ -313,6 +315,11 @@ mod tests {
         let be = |i: usize| u32::from_be_bytes(png[i..i + 4].try_into().unwrap());
         // Width: 10 + 100 + 10 + 300 + 10; height: 56 + (60 + 28 + 10) + (20 + 28 + 10).
         assert_eq!((be(16), be(20)), (430, 212));
+        // A legend wider than the pictures widens the sheet: 10 + 60 × 8 + 10.
+        write_pictures(&stem, "t", &"l".repeat(60), &[pic(100, 40)], 2).unwrap();
+        let png = std::fs::read(stem.with_extension("png")).unwrap();
+        let be = |i: usize| u32::from_be_bytes(png[i..i + 4].try_into().unwrap());
+        assert_eq!(be(16), 500);
     }
 
     #[test]
