@@ -180,6 +180,15 @@ fn a_short_reproduction_writes_every_output_and_checks_every_claim() {
         ]
     );
     assert_eq!(names[12], "gen-2/stairs-chairs");
+    assert!(
+        report.contains("Which order breaks, over the 9 generated worlds"),
+        "{report}"
+    );
+    assert_eq!(
+        worlds.lines().next().unwrap().split(',').count(),
+        4 + 6 + 6 + 2 + 4,
+        "{worlds}"
+    );
     // Each verdict is the side of its effect size's boundary (effects::effect_holds).
     for line in worlds.lines().skip(1) {
         let f: Vec<&str> = line.split(',').collect();

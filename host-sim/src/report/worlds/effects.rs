@@ -48,6 +48,11 @@ pub struct Outcome {
     pub action_laps: f64,
     /// Resets of action feedback's trials, mean (every cause).
     pub action_resets: f64,
+    /// The orders behind claims 4 and 5, Spearman rank correlations: of the final loss with σ,
+    /// of the corrections with σ, of the final loss with the threshold, of the corrections with
+    /// the threshold (claim 4 wants the first two at 1, claim 5 the third at 1 and the fourth
+    /// at −1).
+    pub orders: [f64; 4],
 }
 
 /// `a` relative to the larger of `a` and `b` (0 when both are 0).
@@ -87,6 +92,12 @@ pub fn outcome(world: World, aggs: &[Aggregate], trials: usize, steps: u32) -> O
     let sigma = |a: &Aggregate| a.setting.noise as f64;
     let tau = |a: &Aggregate| a.setting.threshold as f64;
     let loss = |a: &Aggregate| a.final_loss.0;
+    let orders = [
+        rho(&curves, &sigma, &loss),
+        rho(&curves, &sigma, &corrections),
+        rho(&thresholds, &tau, &loss),
+        rho(&thresholds, &tau, &corrections),
+    ];
     let effects = [
         online
             .iter()
@@ -108,8 +119,8 @@ pub fn outcome(world: World, aggs: &[Aggregate], trials: usize, steps: u32) -> O
             .iter()
             .map(|a| relative(corrections(a) - action, corrections(a), action))
             .fold(f64::INFINITY, f64::min),
-        rho(&curves, &sigma, &loss).min(rho(&curves, &sigma, &corrections)),
-        rho(&thresholds, &tau, &loss).min(-rho(&thresholds, &tau, &corrections)),
+        orders[0].min(orders[1]),
+        orders[2].min(-orders[3]),
         every_online.iter().filter(|a| claims::flattened(a)).count() as f64
             / every_online.len().max(1) as f64,
     ];
@@ -119,6 +130,7 @@ pub fn outcome(world: World, aggs: &[Aggregate], trials: usize, steps: u32) -> O
         effects,
         action_laps: online[0].laps.0,
         action_resets: online[0].resets.iter().sum(),
+        orders,
     }
 }
 
@@ -238,6 +250,7 @@ mod tests {
         assert!((o.effects[1] - 0.05 / 0.55).abs() < 1e-12, "{o:?}");
         assert!((o.effects[2] - 0.5).abs() < 1e-12, "{o:?}");
         assert_eq!(&o.effects[3..], &[1.0, 1.0, 1.0]);
+        assert_eq!(o.orders, [1.0, 1.0, 1.0, -1.0]);
         for i in 0..6 {
             assert!(effect_holds(i, o.effects[i]), "claim {}", i + 1);
         }
@@ -269,5 +282,11 @@ mod tests {
         assert_eq!(o.effects[1], 0.5);
         assert!((o.effects[2] + 0.2).abs() < 1e-12);
         assert!((o.effects[5] - 0.9).abs() < 1e-12);
+        // The loss is out of order with σ (ranks 1 3 4 2), the corrections with the threshold
+        // (5 4 2 3 1 where 5 4 3 2 1 is claimed).
+        let want = [0.4, 1.0, 1.0, -0.9];
+        for (got, want) in o.orders.iter().zip(want) {
+            assert!((got - want).abs() < 1e-12, "{:?}", o.orders);
+        }
     }
 }
