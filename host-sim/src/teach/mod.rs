@@ -7,6 +7,8 @@
 //! * [`record`]: what a run records: per-step records, CSV, summary, task success.
 //! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
 //!   controller (`hil_mock`, the firmware) over a CAN link.
+//! * [`person`]: what a person at the teaching console can do, and the feedback each becomes.
+//! * [`session`]: a person teaching (`host-sim teach`): the session, its files, its replay.
 //! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
 //! * [`learners`]: `host-sim learners`, every learner × feedback × noise × world, and the rule
 //!   that picks `host-sim run`'s default learner from it (`docs/learners.md`).
@@ -18,6 +20,8 @@ pub mod calibrate;
 pub mod config;
 pub mod experiment;
 pub mod learners;
+pub mod person;
 pub mod record;
 pub mod remote;
+pub mod session;
 pub mod synthetic;
