@@ -32,7 +32,9 @@
 //!    statistics and aggregates, the paper's claims (one pure function each), the figures and
 //!    drawings, and the report's sections.
 //!
-//! The `host-sim` command (`src/main.rs`, its commands in `src/cli/`) sits on top of the three.
+//! On top of them, [`console`]: the teaching console of `host-sim teach`, a web page on
+//! 127.0.0.1 from which a person teaches the car ([`teach::session`]). The `host-sim` command
+//! (`src/main.rs`, its commands in `src/cli/`) sits on top of all of it.
 //!
 //! Every random choice takes a seed and no clock is read: the same configuration gives
 //! bit-identical records.
@@ -40,6 +42,7 @@
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod console;
 pub mod report;
 pub mod teach;
 pub mod world;
