@@ -364,6 +364,15 @@ impl Session {
             self.link.feedback(tick, fb)?;
             self.corrections += 1;
             self.corrected_now = true;
+        }
+        // Taken: recorded even if the snapshot below fails (the learner has it).
+        self.entries.push(Entry {
+            tick,
+            applied: current,
+            teaching,
+            wall_time_ms,
+        });
+        if effect.feedback.is_some() {
             self.snapshot = self.link.snapshot()?;
             self.snapshots.push(SnapshotEntry {
                 tick,
@@ -371,12 +380,6 @@ impl Session {
                 snapshot: self.snapshot,
             });
         }
-        self.entries.push(Entry {
-            tick,
-            applied: current,
-            teaching,
-            wall_time_ms,
-        });
         Ok(effect)
     }
 
@@ -970,6 +973,59 @@ mod tests {
         assert_eq!(s.corrections(), 0);
         assert!(s.snapshots().is_empty());
         assert_eq!(s.counts()["estop"], 1);
+    }
+
+    /// The in-process learner, with a snapshot that fails once `broken` is set.
+    struct BrokenSnapshot {
+        inner: InProcessLink,
+        broken: Arc<std::sync::atomic::AtomicBool>,
+    }
+
+    impl CarLink for BrokenSnapshot {
+        fn restore(&mut self, snapshot: &LearnerSnapshot) -> Result<()> {
+            self.inner.restore(snapshot)
+        }
+        fn act(
+            &mut self,
+            tick: u32,
+            obs: &firmware_core::observation::Observation,
+        ) -> Result<Decision> {
+            self.inner.act(tick, obs)
+        }
+        fn feedback(&mut self, tick: u32, feedback: &firmware_core::Feedback) -> Result<()> {
+            self.inner.feedback(tick, feedback)
+        }
+        fn snapshot(&mut self) -> Result<LearnerSnapshot> {
+            ensure!(
+                !self.broken.load(std::sync::atomic::Ordering::Relaxed),
+                "the link went down"
+            );
+            self.inner.snapshot()
+        }
+    }
+
+    impl SessionLink for BrokenSnapshot {}
+
+    #[test]
+    fn feedback_the_learner_took_is_recorded_even_when_the_snapshot_after_it_fails() {
+        let c = config(100);
+        let broken = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let link = BrokenSnapshot {
+            inner: InProcessLink::new(c.learner).unwrap(),
+            broken: broken.clone(),
+        };
+        let mut s = Session::start(c, Box::new(link)).unwrap();
+        s.step().unwrap();
+        let target = another(&s);
+        let tick = s.tick();
+        broken.store(true, std::sync::atomic::Ordering::Relaxed);
+        let e = s.teach(tick, Teaching::Action { action: target }, 700);
+        assert!(matches!(e, Err(TeachError::Link(_))), "{e:?}");
+        // The learner has it: the session's record says so, so that a replay gives it too.
+        assert_eq!(s.corrections(), 1);
+        assert_eq!(s.entries().len(), 1);
+        assert_eq!(s.entries()[0].teaching, Teaching::Action { action: target });
+        assert!(s.snapshots().is_empty());
     }
 
     /// A session with every kind of teaching, written to `dir`.
