@@ -1,13 +1,13 @@
 //! `host-sim teach` (a person teaches the car from a web page) and `host-sim replay-session`.
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Result, bail};
 use firmware_core::{LearnerKind, LearnerParams};
+use host_sim::checks::{self, MAX_STEPS};
 use host_sim::console::Console;
-use host_sim::teach::config::{MAX_STEPS, Mode, RunConfig};
+use host_sim::teach::config::{Mode, RunConfig};
 use host_sim::teach::experiment::InProcessLink;
 use host_sim::teach::session::{
     Recorded, Session, SessionAbout, SessionFiles, SessionLink, names, replay,
@@ -28,9 +28,10 @@ pub(crate) struct TeachArgs {
     /// docs/learners.md chose for action feedback (a click is action feedback).
     #[arg(long, value_parser = parse_kind)]
     learner: Option<LearnerKind>,
-    /// Step size (default: the learner's own).
-    #[arg(long, allow_negative_numbers = true)]
-    step: Option<f32>,
+    /// Step size, in (0, 1000] (default: the learner's own: 0.01 for the OGD family, 0.1
+    /// AdaGrad, 1 coactive).
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::step_size))]
+    step: Option<f64>,
     /// Seed of the scenario teacher's noise (its latent-loss line; the learner never sees it).
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -38,8 +39,10 @@ pub(crate) struct TeachArgs {
     /// out/sessions/SCENARIO-UNIXTIME.
     #[arg(long)]
     session_dir: Option<PathBuf>,
-    /// End the session after this many ticks (0.1 s each). Default: when the person finishes.
-    #[arg(long)]
+    /// End the session after this many ticks (0.1 s each), 1 to 10 000 000. Default: when the
+    /// person finishes.
+    #[arg(long, allow_negative_numbers = true,
+          value_parser = checks::count_flag(1..=checks::MAX_STEPS))]
     max_ticks: Option<u32>,
     /// Listen on this port of 127.0.0.1 (default: a free one).
     #[arg(long, default_value_t = 0)]
@@ -78,7 +81,7 @@ pub(crate) fn teach(args: &TeachArgs, load: fn(&str) -> Result<Scenario>) -> Res
     });
     let mut learner = LearnerParams::new(kind);
     if let Some(step) = args.step {
-        learner = learner.with_step(step);
+        learner = learner.with_step(step as f32);
     }
     let config = RunConfig {
         steps: args.max_ticks.unwrap_or(MAX_STEPS),
@@ -106,7 +109,7 @@ pub(crate) fn teach(args: &TeachArgs, load: fn(&str) -> Result<Scenario>) -> Res
         started_unix_s: started,
         ..SessionAbout::default()
     };
-    println!(
+    outln!(
         "host-sim teach: {name}, the {} learner {}; the session is written to {}",
         kind.name(),
         match &args.link.link {
@@ -114,24 +117,24 @@ pub(crate) fn teach(args: &TeachArgs, load: fn(&str) -> Result<Scenario>) -> Res
             None => "in this process".to_string(),
         },
         dir.display()
-    );
-    println!("open {}", console.url());
-    println!("(only on this machine; the token is new each time; Ctrl-C ends the session)");
-    std::io::stdout().flush()?;
+    )?;
+    outln!("open {}", console.url())?;
+    outln!("(only on this machine; the token is new each time; Ctrl-C ends the session)")?;
     let outcome = console.run(session, files, about, args.link.link.clone())?;
-    println!(
+    // The session's own errors first: a closed standard output does not hide them.
+    let said = outln!(
         "host-sim teach: session ended ({}): {} ticks, {} corrections, written to {}",
         outcome.ended_by,
         outcome.ticks,
         outcome.corrections,
         dir.display()
-    );
-    println!("replay it: host-sim replay-session {}", dir.display());
+    )
+    .and_then(|()| outln!("replay it: host-sim replay-session {}", dir.display()));
     outcome.written?;
     if outcome.failed {
         bail!("the session ended early: {}", outcome.ended_by);
     }
-    Ok(())
+    Ok(said?)
 }
 
 pub(crate) fn replay_session(args: &ReplayArgs, load: fn(&str) -> Result<Scenario>) -> Result<()> {
@@ -150,14 +153,14 @@ pub(crate) fn replay_session(args: &ReplayArgs, load: fn(&str) -> Result<Scenari
     };
     let summary = serde_json::to_string_pretty(&replayed.session.summary(&about))? + "\n";
     std::fs::write(out.join(names::SUMMARY), summary)?;
-    println!(
+    outln!(
         "replayed {}: {} ticks, {} teachings, against a fresh {} learner in this process; wrote {}",
         args.dir.display(),
         recorded.ticks,
         recorded.entries.len(),
         recorded.learner.kind.name(),
         out.display()
-    );
+    )?;
     if !replayed.differences.is_empty() {
         for d in &replayed.differences {
             eprintln!("differs: {d}");
@@ -167,11 +170,11 @@ pub(crate) fn replay_session(args: &ReplayArgs, load: fn(&str) -> Result<Scenari
             replayed.differences.len()
         );
     }
-    println!(
+    outln!(
         "identical: {} and {} byte for byte, final weights {:?}",
         names::STEPS,
         names::SNAPSHOTS,
         replayed.session.snapshot().state.average
-    );
+    )?;
     Ok(())
 }

@@ -49,7 +49,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail, ensure};
 use firmware_core::agent::{Decision, TICK_HISTORY};
-use firmware_core::{ActionIndex, LearnerParams, LearnerSnapshot, Weights, policy};
+use firmware_core::{ActionIndex, Feature, LearnerParams, LearnerSnapshot, policy};
 use serde::{Deserialize, Serialize};
 
 use super::config::{Mode, RunConfig};
@@ -282,7 +282,7 @@ impl Session {
     /// (its choice in the tick, until feedback changes the weights).
     pub fn choice_now(&self) -> Option<ActionIndex> {
         let j = &self.current.judgement;
-        policy::select(&self.snapshot.state.average, &j.table, j.allowed)
+        policy::select(&self.snapshot.state.average, j.table(), j.allowed())
     }
 
     /// The ticks driven so far.
@@ -490,11 +490,14 @@ fn sense(
 ) -> Result<TickView> {
     let obs = episode.observe();
     let pose = episode.car().pose;
-    let decision = link.act(tick, &obs)?;
-    let judgement = teacher
-        .judge(&obs)
-        .map_err(|e| anyhow::anyhow!("tick {tick}: teacher: observation refused: {e}"))?;
-    if decision.allowed != judgement.allowed {
+    // As `run` does: one evaluation of the observation, the teacher's and (in process) the
+    // learner's; a car evaluates on its own.
+    let checked = obs
+        .check()
+        .map_err(|e| anyhow::anyhow!("tick {tick}: observation refused: {e}"))?;
+    let judgement = teacher.judge_checked(checked);
+    let decision = link.act_evaluated(tick, &obs, &judgement.evaluation)?;
+    if decision.allowed != judgement.allowed() {
         bail!("tick {tick}: the learner's and the teacher's collision masks differ");
     }
     Ok(TickView {
@@ -788,14 +791,19 @@ pub fn replay(recorded: &Recorded, config: RunConfig) -> Result<Replayed> {
             &snapshots,
         ));
     }
-    // The final weights as f32 bits (each number in summary.json is an f32 written exactly).
+    // The final weights by feature name as f32 bits (each number in summary.json is an f32
+    // written exactly).
     let state = session.snapshot().state;
     for (key, replayed) in [
         ("final_weights", state.average),
         ("final_iterate", state.iterate),
     ] {
-        let written: Option<Weights> = serde_json::from_value(recorded.summary[key].clone()).ok();
-        if written.map(|w| w.map(f32::to_bits)) != Some(replayed.map(f32::to_bits)) {
+        let written = Feature::ALL.map(|f| {
+            recorded.summary[key][f.name()]
+                .as_f64()
+                .map(|v| (v as f32).to_bits())
+        });
+        if written != replayed.map(|v| Some(v.to_bits())) {
             differences.push(format!(
                 "{}: {key} recorded {}, replayed {replayed:?}",
                 names::SUMMARY,
@@ -877,7 +885,7 @@ mod tests {
         assert!(s.step().is_err());
         // The teacher's threshold so high that it never corrects: the same ticks.
         let c = RunConfig {
-            threshold: Some(1.0e30),
+            threshold: Some(1000.0),
             ..config(60)
         };
         let run = crate::teach::experiment::run(&c).unwrap();
