@@ -108,6 +108,7 @@ pub fn scene(
         "lattice": lattice,
         "features": Feature::ALL.iter().map(|f| f.name()).collect::<Vec<_>>(),
         "statements": statements,
+        "kinds": Teaching::KINDS,
         "speeds": SPEEDS,
         "learner": config.learner.kind.name(),
         "teacher": teacher.preset,

@@ -20,12 +20,19 @@
 //!
 //! # New kinds of feedback
 //!
-//! Each kind is one variant here, one arm of [`Teaching::effect`] and one entry in the page's
-//! table of controls (`console/assets/console.js`, `CONTROLS`). A kind the learner takes later
-//! (an intervention for the E-stop, a reward, a correct/incorrect mark, good/bad over a span of
-//! ticks, a ranking, a perturbed trajectory) slots in the same way; the E-stop's arm is where an
-//! intervention feedback goes once `firmware-core` has one. The serialised form of a
-//! [`Teaching`] is what `feedback.jsonl` holds (`kind`, `content`), so old sessions keep
+//! Each kind is, here, one variant of [`Teaching`] (its fields are the `content` the page
+//! sends), its name in [`Teaching::kind`] and [`Teaching::KINDS`], and one arm of
+//! [`Teaching::effect`] (with a unit test below); on the page, one entry in the table of controls
+//! (`console/assets/console.js`, `CONTROLS`: its button, its key, and `teach({kind, content})`)
+//! and its label in `KIND_LABELS`; and a row of the table in `docs/console.md`. Nothing else
+//! changes: the WebSocket command carries any [`Teaching`] (`console/wire.rs`), the session
+//! applies whatever feedback the effect gives, counts it as a correction and records it, and the
+//! replay reads it back from `feedback.jsonl`. A kind the learner takes later (an intervention for
+//! the E-stop, a reward, a correct/incorrect mark, good/bad over a span of ticks, a ranking, a
+//! perturbed trajectory) slots in the same way; the E-stop's arm is where an intervention feedback
+//! goes once `firmware-core` has one. A kind about several ticks (a span) needs more: today
+//! `Session::teach` judges a teaching against the one [`TickRound`] of the tick it names. The serialised form of
+//! a [`Teaching`] is what `feedback.jsonl` holds (`kind`, `content`), so old sessions keep
 //! replaying when kinds are added.
 
 use firmware_core::{

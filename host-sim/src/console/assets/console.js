@@ -67,6 +67,11 @@
     { group: 'Show', id: 'teacher-line', label: "Teacher's choice", key: 't', run: () => { showTeacher = !showTeacher; redraw(); } },
     { group: 'Show', id: 'help-button', label: 'Keys', key: '?', run: () => { $('help').hidden = !$('help').hidden; } },
   ];
+  // How the count of each kind of teaching (Teaching::KINDS, in the scene's `kinds`) reads; a
+  // kind without a label here shows its name.
+  const KIND_LABELS = {
+    action: 'go-there', preference: 'preferences', statement: 'statements', estop: 'E-stops',
+  };
   for (const c of CONTROLS) {
     if (c.say) c.run = () => teach({ kind: 'statement', content: { statement: c.say } });
   }
@@ -147,8 +152,9 @@
     else setStatus('paused', 'paused');
     showWeights(s.weights);
     const t = s.teachings;
-    $('teachings').textContent =
-      `${t.action} go-there · ${t.preference} preferences · ${t.statement} statements · ${t.estop} E-stops`;
+    $('teachings').textContent = (scene ? scene.kinds : Object.keys(t))
+      .map((k) => `${t[k]} ${KIND_LABELS[k] || k}`)
+      .join(' · ');
     showLink(s.link);
     if (s.notice && s.notice.seq !== lastNotice) {
       lastNotice = s.notice.seq;
