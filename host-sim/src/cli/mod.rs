@@ -48,7 +48,9 @@ pub(crate) mod demo;
 pub(crate) mod generate;
 pub(crate) mod inspect;
 pub(crate) mod learners;
+pub(crate) mod link;
 pub(crate) mod reproduce;
+pub(crate) mod teach;
 
 /// An online learner on the command line (`--learner NAME`: the names of
 /// [`LearnerKind::name`]).
