@@ -22,7 +22,7 @@
 //! |---|---|
 //! | `/?token=…` | the page |
 //! | `/console.js`, `/console.css` (`?token=…`) | its script and style |
-//! | `/map.png?token=…` | the household's picture ([`crate::report::plot::Raster`]) |
+//! | `/map.png?token=…` | the household's picture ([`crate::report::plot::MapDrawing`]) |
 //! | `/ws?token=…` | the WebSocket: [`wire`] |
 //!
 //! Every request is checked by [`access::Access`] first (token, `Host`, `Origin`).
