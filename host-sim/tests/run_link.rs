@@ -147,7 +147,7 @@ fn bad_link_arguments_are_clear_errors() {
                 "--frame-mode",
                 "x",
             ],
-            "classic or fd",
+            "[possible values: classic, fd]",
         ),
     ] {
         let o = host_sim(&args);
