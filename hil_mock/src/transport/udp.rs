@@ -222,7 +222,7 @@ impl UdpLink {
         Self::new(socket, None, false)
     }
 
-    /// The socket never blocks: `recv` reads what is there and waits in [`wait_readable`].
+    /// The socket never blocks: `recv` reads what is there and waits in `wait_readable`.
     fn new(
         socket: UdpSocket,
         peer: Option<SocketAddr>,
@@ -285,7 +285,7 @@ impl Link for UdpLink {
     }
 
     /// Returns a frame already received, else reads the socket, and while it is empty waits in
-    /// [`wait_readable`] for the time left: a datagram is taken the moment it arrives.
+    /// `wait_readable` for the time left: a datagram is taken the moment it arrives.
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         self.answer_to = None;
         let start = Instant::now();
