@@ -250,11 +250,11 @@ pub trait PseudoLossSource {
     ) -> Result<(), LearnError>;
 
     /// Whether the feedback names the action the teacher holds best, so that its pseudo-loss
-    /// ranks that action above *every* other on its own. True for [`ActionFeedback`] and
-    /// [`PerturbationFeedback`] (every action ranked by its distance to the correction). False
+    /// ranks that action above *every* other on its own. True for [`ActionFeedback`]. False
     /// (the default) for feedback that judges actions only relative to the ones it compares or
     /// to the executed one: a preference, a ranking, statements about how the learner's choice
-    /// could be better, a reward, correct/incorrect, a span, an E-stop. A learner may apply absolute feedback to any of its iterates, relative feedback
+    /// could be better, a reward, correct/incorrect, a span, an E-stop; and for a perturbation,
+    /// whose margins are too small to be taken at another iterate (see [`perturbation`]). A learner may apply absolute feedback to any of its iterates, relative feedback
     /// only to the weights that chose the judged action (see [`crate::AveragedOgd`]).
     fn is_absolute(&self) -> bool {
         false

@@ -140,7 +140,10 @@ fn perturbation_by_hand() {
     let fb = PerturbationFeedback::new(&[0.0, 2.0, 0.0, 0.0, 0.0, 1.0]).unwrap();
     let [d0, d1, d2] = values(&fb, 0).unwrap();
     assert!(close(d0, 6f64.sqrt() - 1.0) && close(d1, 0.0) && close(d2, 22f64.sqrt() - 1.0));
-    assert!(fb.is_absolute());
+    assert!(
+        !fb.is_absolute(),
+        "taken at the weights that acted (see its documentation)"
+    );
     // Thousandths, fixed width.
     assert_eq!(Milli::from_f32(1.2345).unwrap().get(), 1235);
     assert_eq!(Milli::new(-7).to_f32(), -0.007);

@@ -20,8 +20,16 @@
 //! itself (the meta-algorithm's surrogate is a loss over the actions the car can take); when
 //! the correction is a lattice action's own trajectory, `φ̄` is its features and `â` is that
 //! action (assumption 1), and a partial nudge points to whichever action is nearest it.
-//! The pseudo-loss ranks every action on its own, like the teacher's action, so it is
-//! *absolute* ([`super::PseudoLossSource::is_absolute`]).
+//!
+//! The pseudo-loss ranks every action on its own, like the teacher's action, but it is taken as
+//! *relative* ([`super::PseudoLossSource::is_absolute`] false: an averaged learner evaluates it
+//! at the weights that acted). Its margins are feature distances, a few units, not action
+//! feedback's 100: at [`crate::AveragedOgd`]'s raw iterate the hinge goes flat as soon as that
+//! iterate scores the target a few units above its neighbours, while the average that acts
+//! still lags behind, and the teacher keeps correcting to no effect. Measured in `host-sim`'s
+//! doors household (seed 0, averaged OGD, 5000 steps, first → last tenth of the latent loss):
+//! taken as absolute 8.0 → 3.3, 3812 corrections, no lap; as relative 8.6 → 1.3, 2070
+//! corrections, 9 laps.
 //!
 //! # On the wire and on the car
 //!
@@ -152,10 +160,6 @@ impl super::PseudoLossSource for PerturbationFeedback {
             out[a.get()] = distance(round.phi(a), &target);
         }
         Ok(())
-    }
-
-    fn is_absolute(&self) -> bool {
-        true
     }
 }
 

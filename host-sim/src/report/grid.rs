@@ -14,7 +14,7 @@ use crate::teach::record::RESET_CAUSES;
 use crate::world::registry;
 use crate::world::scenario::Scenario;
 use crate::world::sim::ResetReason;
-use crate::world::teacher::FeedbackKind;
+use crate::world::teacher::{FeedbackKind, PAPER_KINDS};
 
 /// The households of the variety experiment (the paper's three).
 pub const HOUSEHOLDS: [&str; 3] = ["doors", "stairs-right", "stairs-chairs"];
@@ -36,7 +36,7 @@ pub const PATH_TICKS: u32 = 1_500;
 /// Largest number of trials per setting.
 pub const MAX_TRIALS: u32 = 10_000;
 /// Version of the shard files.
-pub const SHARD_FORMAT: u32 = 2;
+pub const SHARD_FORMAT: u32 = 3;
 /// The factors of the teachers' scale the scale sweep runs the claims at.
 pub const SWEEP_FACTORS: [f32; 5] = [0.25, 0.5, 1.0, 2.0, 4.0];
 
@@ -117,7 +117,7 @@ impl Setting {
 pub fn settings() -> Vec<Setting> {
     let mut out = Vec::new();
     for household in HOUSEHOLDS {
-        let mut modes: Vec<Mode> = FeedbackKind::ALL.into_iter().map(Mode::Online).collect();
+        let mut modes: Vec<Mode> = PAPER_KINDS.into_iter().map(Mode::Online).collect();
         modes.push(Mode::BehaviourCloning);
         for mode in modes {
             out.push(Setting {

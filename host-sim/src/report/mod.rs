@@ -70,11 +70,15 @@
 //! * [`outputs`]: every file of a finished grid; [`sections`]: the report's text.
 //! * [`sweep`]: the claims at other scales of the teachers.
 //! * [`registry`]: the paper's experiments by name (`host-sim list`).
+//! * [`kinds`]: beyond the paper, every kind of feedback and mixed streams in every world
+//!   (issue 15): its own small grid, sharded and merged with the paper's, and its section of the
+//!   report.
 
 pub mod aggregate;
 pub mod claims;
 pub mod figure;
 pub mod grid;
+pub mod kinds;
 pub mod outputs;
 pub mod panels;
 pub mod paths;

@@ -136,9 +136,16 @@ fn teacher_laps(
     Ok(laps)
 }
 
-/// Writes every output of a finished grid into `out`; returns the report's text.
-pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<String> {
+/// Writes every output of a finished grid and of the kinds experiment into `out`; returns the
+/// report's text.
+pub fn finalize(
+    out: &Path,
+    o: &Options,
+    results: &[TrialResult],
+    kinds: &[super::kinds::KindTrial],
+) -> Result<String> {
     let aggs = aggregate_all(o, results)?;
+    let kind_aggs = super::kinds::aggregate_all(o, kinds)?;
     let households = load_households()?;
     let figs = out.join("figures");
     std::fs::create_dir_all(&figs).with_context(|| format!("{}: cannot create", figs.display()))?;
@@ -403,8 +410,12 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
     }
     write_file(&out.join("paths.csv"), paths_csv.as_bytes())?;
 
+    let kinds_section = super::kinds::write_outputs(out, o, &kind_aggs)?;
     let calibration = crate::teach::calibrate::run()?;
-    let report = report(o, &aggs, &calibration, &teacher_paths, &path_rows, cm);
+    let mut report = report(o, &aggs, &calibration, &teacher_paths, &path_rows, cm);
+    // The kinds experiment's section goes before the list of files.
+    let at = report.find("\n## Files").unwrap_or(report.len());
+    report.insert_str(at, &format!("\n{kinds_section}"));
     write_file(&out.join("REPORT.md"), report.as_bytes())?;
     Ok(report)
 }

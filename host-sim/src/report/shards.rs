@@ -22,8 +22,16 @@ pub(crate) fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))
 }
 
-/// Writes a shard's raw results and its manifest into `dir`.
-pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &[TrialResult]) -> Result<()> {
+/// Writes a shard's raw results (the paper's grid and the kinds experiment) and its manifest
+/// into `dir`.
+pub fn write_shard(
+    dir: &Path,
+    o: &Options,
+    shard: Shard,
+    results: &[TrialResult],
+    kinds: &[super::kinds::KindTrial],
+) -> Result<()> {
+    super::kinds::write_shard(dir, kinds)?;
     let all = settings();
     for r in results {
         let key = all[r.setting].key();
@@ -70,6 +78,8 @@ pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &[TrialResult
         "shards": shard.count,
         "jobs": results.len(),
         "settings": all.iter().map(Setting::key).collect::<Vec<_>>(),
+        "kind_jobs": kinds.len(),
+        "kind_settings": super::kinds::settings().iter().map(|s| s.key()).collect::<Vec<_>>(),
     });
     write_file(
         &dir.join("manifest.json"),
@@ -93,8 +103,10 @@ fn read_manifest(dir: &Path) -> Result<(Options, Shard)> {
         num("format")?
     );
     let keys: Vec<String> = settings().iter().map(Setting::key).collect();
+    let kind_keys: Vec<String> = super::kinds::settings().iter().map(|s| s.key()).collect();
     ensure!(
-        v.get("settings") == Some(&serde_json::json!(keys)),
+        v.get("settings") == Some(&serde_json::json!(keys))
+            && v.get("kind_settings") == Some(&serde_json::json!(kind_keys)),
         "{}: written by a build with other settings",
         path.display()
     );
@@ -214,8 +226,11 @@ fn parse_path(dir: &Path) -> Result<PathTrace> {
     })
 }
 
+/// The raw results of a grid: options, the paper's trials, the kinds experiment's trials.
+pub type Shards = (Options, Vec<TrialResult>, Vec<super::kinds::KindTrial>);
+
 /// Reads shard folders; checks that they are one grid, each shard exactly once.
-pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Vec<TrialResult>)> {
+pub fn read_shards(dirs: &[PathBuf]) -> Result<Shards> {
     ensure!(!dirs.is_empty(), "merge needs at least one shard folder");
     let mut grid: Option<(Options, u32)> = None;
     let mut seen = BTreeMap::new();
@@ -275,7 +290,16 @@ pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Vec<TrialResult>)> {
     );
     let all = settings();
     let mut results = Vec::new();
+    let mut kinds = Vec::new();
     for (index, dir) in &seen {
+        kinds.extend(super::kinds::read_shard(
+            dir,
+            &o,
+            Shard {
+                index: *index,
+                count: n,
+            },
+        )?);
         for (s, t) in jobs(
             &o,
             Shard {
@@ -304,5 +328,6 @@ pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Vec<TrialResult>)> {
         }
     }
     results.sort_by_key(|r| (r.setting, r.trial));
-    Ok((o, results))
+    kinds.sort_by_key(|r| (r.setting, r.trial));
+    Ok((o, results, kinds))
 }

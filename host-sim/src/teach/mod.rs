@@ -4,6 +4,8 @@
 //!   start jitter.
 //! * [`experiment`]: the run loop behind the [`experiment::CarLink`] trait, parallel runs.
 //! * [`bc`]: behaviour cloning, the paper's baseline.
+//! * [`kinds`]: every kind of feedback in one stream: seeded mixes, the cost-aware teacher,
+//!   spans over several ticks, the effort a person spends, how informative each correction was.
 //! * [`record`]: what a run records: per-step records, CSV, summary, task success.
 //! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
 //!   controller (`hil_mock`, the firmware) over a CAN link.
@@ -17,6 +19,7 @@ pub mod bc;
 pub mod calibrate;
 pub mod config;
 pub mod experiment;
+pub mod kinds;
 pub mod learners;
 pub mod record;
 pub mod remote;

@@ -105,6 +105,10 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
+mod kinds;
+
+pub use kinds::{RANKED_SHOWN, REWARD_FULL_SCALE};
+
 /// A named teacher preset: what it trades for what (its ratios) and how large its latent losses
 /// are (its scale).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -289,34 +293,16 @@ impl TeacherSpec {
     }
 }
 
-/// Which kind of feedback a teacher gives.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-pub enum FeedbackKind {
-    /// The action it wanted.
-    Action,
-    /// A choice between the learner's action and a random other one.
-    Preference,
-    /// Statements per feature ("avoid doors", "stay on the path").
-    Semantic,
-}
+/// Which kind of feedback a teacher gives: `firmware-core`'s kinds, every one of the paper's
+/// Table 1 (see [`firmware_core::feedback`]).
+pub use firmware_core::FeedbackKind;
 
-impl FeedbackKind {
-    /// All kinds.
-    pub const ALL: [FeedbackKind; 3] = [
-        FeedbackKind::Action,
-        FeedbackKind::Preference,
-        FeedbackKind::Semantic,
-    ];
-
-    /// Its name: action, preference, semantic.
-    pub const fn name(self) -> &'static str {
-        match self {
-            FeedbackKind::Action => "action",
-            FeedbackKind::Preference => "preference",
-            FeedbackKind::Semantic => "semantic",
-        }
-    }
-}
+/// The paper's three kinds (section 6): what the reproduction of its experiments runs.
+pub const PAPER_KINDS: [FeedbackKind; 3] = [
+    FeedbackKind::Action,
+    FeedbackKind::Preference,
+    FeedbackKind::Semantic,
+];
 
 /// The teacher's view of one tick.
 #[derive(Clone, Debug)]
@@ -336,6 +322,8 @@ pub struct Judgement {
     /// Cross-track error of every action's end against the path reference (m), what a
     /// statement about the path is judged by ([`cross_track_errors`]).
     pub cross: [f32; MAX_ACTIONS],
+    /// The observation judged (a perturbation's corrected trajectory is measured in it).
+    pub observation: Observation,
 }
 
 impl Judgement {
@@ -366,6 +354,11 @@ impl Teacher {
     /// Its specification.
     pub fn spec(&self) -> &TeacherSpec {
         &self.spec
+    }
+
+    /// Its seeded generator (a mix draws its kinds from it).
+    pub(crate) fn rng(&mut self) -> &mut ChaCha8Rng {
+        &mut self.rng
     }
 
     /// Evaluates `obs` and perceives the latent loss of every action.
@@ -404,6 +397,7 @@ impl Teacher {
             perceived,
             choice: choice.map(|(a, _)| a),
             cross: cross_track_errors(&obs.reference),
+            observation: obs.clone(),
         })
     }
 
@@ -430,12 +424,29 @@ impl Teacher {
         if random {
             match kind {
                 FeedbackKind::Preference => coin = Some(self.rng.random::<bool>()),
+                // Their random answers are drawn in teacher/kinds.rs.
+                FeedbackKind::Ranking
+                | FeedbackKind::Reward
+                | FeedbackKind::Correctness
+                | FeedbackKind::Span
+                | FeedbackKind::EStop => {}
                 _ => {
                     let n = j.allowed.count();
                     let k = self.rng.random_range(0..n) as usize;
                     choice = j.allowed.iter().nth(k)?;
                 }
             }
+        }
+        if !matches!(
+            kind,
+            FeedbackKind::Action | FeedbackKind::Preference | FeedbackKind::Semantic
+        ) {
+            // The kinds beyond the paper's three (teacher/kinds.rs): nothing to say when its
+            // own choice is the learner's, as for action and semantic feedback.
+            if j.choice == Some(chosen) {
+                return None;
+            }
+            return self.other_kind(kind, j, chosen, choice, random);
         }
         match kind {
             FeedbackKind::Action => {
@@ -492,6 +503,7 @@ impl Teacher {
                 }
                 (!said.is_empty()).then_some(Feedback::Semantic(said))
             }
+            _ => None,
         }
     }
 }
