@@ -215,12 +215,7 @@ impl Agent {
             .iter()
             .find(|r| r.tick == Some(tick))
             .ok_or(FeedbackError::UnknownTick(tick))?;
-        let round = Round::new(&record.features, record.allowed, record.chosen)
-            .and_then(|r| r.with_reference(record.reference))
-            .map_err(FeedbackError::Learn)?;
-        self.learner
-            .learn(&round, feedback)
-            .map_err(FeedbackError::Learn)
+        learn_at(&mut self.learner, record, feedback)
     }
 
     /// The ticks of a span ending at `tick` that the agent holds, as slots, oldest first.
@@ -235,9 +230,16 @@ impl Agent {
                 n += 1;
             }
         }
-        // Oldest first: by distance back from `tick`, largest first (four entries).
+        // Oldest first: by distance back from `tick`, largest first (an insertion sort of at
+        // most four entries).
         let age = |i: usize| self.history[i].tick.map_or(0, |t| tick.wrapping_sub(t));
-        slots[..n].sort_unstable_by_key(|&i| core::cmp::Reverse(age(i)));
+        for k in 1..n {
+            let mut j = k;
+            while j > 0 && age(slots[j - 1]) < age(slots[j]) {
+                slots.swap(j - 1, j);
+                j -= 1;
+            }
+        }
         (slots, n)
     }
 
@@ -257,12 +259,10 @@ impl Agent {
         let mut learner = self.learner;
         let mut last = None;
         let mut stepped = false;
+        // As a `Feedback`: the same learning path as every other kind (one copy of it).
+        let label = Feedback::Span(*span);
         for &slot in &slots[..n] {
-            let record = &self.history[slot];
-            let round = Round::new(&record.features, record.allowed, record.chosen)
-                .and_then(|r| r.with_reference(record.reference))
-                .map_err(FeedbackError::Learn)?;
-            let outcome = learner.learn(&round, span).map_err(FeedbackError::Learn)?;
+            let outcome = learn_at(&mut learner, &self.history[slot], &label)?;
             stepped |= outcome.stepped;
             last = Some(outcome);
         }
@@ -280,6 +280,20 @@ impl Agent {
         }
         self.next = 0;
     }
+}
+
+/// Learns from `feedback` about the tick `record` holds.
+fn learn_at(
+    learner: &mut Learner,
+    record: &TickRecord,
+    feedback: &Feedback,
+) -> Result<Outcome, FeedbackError> {
+    let round = Round::new(&record.features, record.allowed, record.chosen)
+        .and_then(|r| r.with_reference(record.reference))
+        .map_err(FeedbackError::Learn)?;
+    learner
+        .learn(&round, feedback)
+        .map_err(FeedbackError::Learn)
 }
 
 #[cfg(test)]

@@ -640,21 +640,24 @@ impl Feedback {
             Feedback::EStop(_) => FeedbackKind::EStop,
         }
     }
+}
 
-    /// The feedback as its pseudo-loss source.
-    fn source(&self) -> &dyn PseudoLossSource {
-        match self {
-            Feedback::Action(f) => f,
-            Feedback::Preference(f) => f,
-            Feedback::Semantic(f) => f,
-            Feedback::Perturbation(f) => f,
-            Feedback::Reward(f) => f,
-            Feedback::Correctness(f) => f,
-            Feedback::Span(f) => f,
-            Feedback::Ranking(f) => f,
-            Feedback::EStop(f) => f,
+/// `$body` with `$f` bound to the feedback inside `$fb`, whatever its kind (a `match`, not a
+/// trait object: a vtable would keep every kind's every method in the firmware).
+macro_rules! each_kind {
+    ($fb:expr, $f:ident => $body:expr) => {
+        match $fb {
+            Feedback::Action($f) => $body,
+            Feedback::Preference($f) => $body,
+            Feedback::Semantic($f) => $body,
+            Feedback::Perturbation($f) => $body,
+            Feedback::Reward($f) => $body,
+            Feedback::Correctness($f) => $body,
+            Feedback::Span($f) => $body,
+            Feedback::Ranking($f) => $body,
+            Feedback::EStop($f) => $body,
         }
-    }
+    };
 }
 
 impl PseudoLossSource for Feedback {
@@ -663,15 +666,22 @@ impl PseudoLossSource for Feedback {
         round: &Round<'_>,
         out: &mut [f32; MAX_ACTIONS],
     ) -> Result<(), LearnError> {
-        self.source().write_pseudo_loss(round, out)
+        each_kind!(self, f => f.write_pseudo_loss(round, out))
     }
 
     fn is_absolute(&self) -> bool {
-        self.source().is_absolute()
+        each_kind!(self, f => f.is_absolute())
     }
 
+    /// Action feedback takes its shortcut; every other kind writes its raw values, checked and
+    /// shifted here once (one copy of the check in the firmware, not one per kind).
     fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
-        self.source().to_pseudo_loss(round)
+        if let Feedback::Action(f) = self {
+            return f.to_pseudo_loss(round);
+        }
+        let mut raw = [0.0f32; MAX_ACTIONS];
+        self.write_pseudo_loss(round, &mut raw)?;
+        Ok(PseudoLoss::from_raw(raw, round.allowed())?.with_absolute(self.is_absolute()))
     }
 }
 

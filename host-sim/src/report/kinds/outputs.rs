@@ -46,12 +46,7 @@ fn label(m: Mode) -> String {
 
 /// The latent loss of each teaching of `world` against `x` (a per-step curve of the same
 /// aggregate, its mean used as the abscissa: the step, the corrections or the effort so far).
-fn loss_against(
-    aggs: &[&KindAggregate],
-    title: &str,
-    x_label: &str,
-    x: &Abscissa,
-) -> Panel {
+fn loss_against(aggs: &[&KindAggregate], title: &str, x_label: &str, x: &Abscissa) -> Panel {
     Panel {
         title: title.to_string(),
         x_label: x_label.to_string(),
