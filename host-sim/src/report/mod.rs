@@ -73,8 +73,11 @@
 //! * [`kinds`]: beyond the paper, every kind of feedback and mixed streams in every world
 //!   (issue 15): its own small grid, sharded and merged with the paper's, and its section of the
 //!   report.
+//! * [`run_figure`]: the figure of one `host-sim run`; [`run_folder`]: a run's folder read back;
+//!   [`animation`]: a run as an animated picture (`host-sim draw --run DIR --animate FILE`).
 
 pub mod aggregate;
+pub mod animation;
 pub mod claims;
 pub mod figure;
 pub mod grid;
@@ -84,6 +87,8 @@ pub mod panels;
 pub mod paths;
 pub mod plot;
 pub mod registry;
+pub mod run_figure;
+pub mod run_folder;
 pub mod sections;
 pub mod shards;
 pub mod statistics;

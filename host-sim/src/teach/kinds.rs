@@ -316,7 +316,7 @@ pub struct Tutor {
 fn over_minimisers(delta: &PseudoLoss, j: &Judgement, loss: &[f32; 64]) -> Option<(f32, f32)> {
     let mut n = 0u32;
     let (mut sum, mut worst) = (0.0f64, f32::NEG_INFINITY);
-    for a in j.allowed {
+    for a in j.allowed() {
         if delta[a] == 0.0 {
             n += 1;
             sum += loss[a.get()] as f64;
@@ -328,8 +328,8 @@ fn over_minimisers(delta: &PseudoLoss, j: &Judgement, loss: &[f32; 64]) -> Optio
 
 /// The pseudo-loss of `fb` about the tick `j` judged, where the learner chose `chosen`.
 fn delta_of(fb: &Feedback, j: &Judgement, chosen: ActionIndex) -> Option<PseudoLoss> {
-    let round = Round::new(&j.table, j.allowed, chosen)
-        .and_then(|r| r.with_reference(j.observation.reference))
+    let round = Round::new(j.table(), j.allowed(), chosen)
+        .and_then(|r| r.with_reference(j.evaluation.reference()))
         .ok()?;
     // A span's pseudo-loss on one tick is its label's.
     pseudo_loss(fb, &round).ok()
@@ -344,7 +344,7 @@ fn perceived_alpha(fb: &Feedback, j: &Judgement, chosen: ActionIndex) -> f32 {
         return f32::NEG_INFINITY;
     };
     let best = j
-        .allowed
+        .allowed()
         .iter()
         .map(|a| j.perceived[a.get()])
         .fold(f32::INFINITY, f32::min);

@@ -7,6 +7,8 @@
 //! * [`kinds`]: every kind of feedback in one stream: seeded mixes, the cost-aware teacher,
 //!   spans over several ticks, the effort a person spends, how informative each correction was.
 //! * [`record`]: what a run records: per-step records, CSV, summary, task success.
+//! * [`learner_file`]: the learner file of `run --save-learner` and `--load-learner`: the
+//!   versioned snapshot the car persists.
 //! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
 //!   controller (`hil_mock`, the firmware) over a CAN link.
 //! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
@@ -20,6 +22,7 @@ pub mod calibrate;
 pub mod config;
 pub mod experiment;
 pub mod kinds;
+pub mod learner_file;
 pub mod learners;
 pub mod record;
 pub mod remote;

@@ -53,7 +53,7 @@ impl Teacher {
                     return None;
                 }
                 let pushed = DeformedTrajectory::between(chosen, choice, PUSH);
-                let valid = j.observation.check().ok()?;
+                let valid = j.observation.as_ref()?.check().ok()?;
                 let mut phi = pushed.features(valid);
                 for (x, (lo, hi)) in phi.iter_mut().zip(CORRECTED_RANGES).take(FEATURE_COUNT) {
                     *x = x.clamp(lo, hi);
@@ -61,7 +61,7 @@ impl Teacher {
                 PerturbationFeedback::new(&phi).map(Feedback::Perturbation)
             }
             FeedbackKind::Ranking => {
-                let mut others = j.allowed;
+                let mut others = j.allowed();
                 others.remove(chosen);
                 let mut pool: Vec<ActionIndex> = others.iter().collect();
                 let mut shown = vec![chosen];
