@@ -125,3 +125,54 @@ fn a_mixed_run_records_each_correction_s_kind_and_effort() {
         std::fs::read_to_string(again.join("steps.csv")).unwrap()
     );
 }
+
+/// The learner file (issue 18) holds the learner, whatever taught it: a learner taught by a mix
+/// of every kind (spans and E-stops among them) is saved, and loaded by a run taught by the
+/// cost-aware teacher in another household, which starts from exactly the saved weights. (The
+/// file holds no ticks: a span given after a load covers only the ticks acted since.)
+#[test]
+fn a_learner_taught_by_a_mix_is_saved_and_loaded_by_another_teaching() {
+    let tmp = tempfile::tempdir().unwrap();
+    let file = tmp.path().join("mixed.learner");
+    let (a, b) = (tmp.path().join("a"), tmp.path().join("b"));
+    let o = host_sim(&[
+        "run",
+        "--feedback",
+        "mix:all",
+        "--steps",
+        "300",
+        "--seed",
+        "4",
+        "--save-learner",
+        file.to_str().unwrap(),
+        "--out",
+        a.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let json = |p: &std::path::Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p.join("summary.json")).unwrap()).unwrap()
+    };
+    let taught = json(&a);
+    assert!(taught["totals"]["by_kind"].as_object().unwrap().len() >= 5);
+    let o = host_sim(&[
+        "run",
+        "--scenario",
+        "stairs-right",
+        "--feedback",
+        "cheapest",
+        "--steps",
+        "50",
+        "--load-learner",
+        file.to_str().unwrap(),
+        "--out",
+        b.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let tested = json(&b);
+    assert_eq!(tested["config"]["feedback"], "cheapest");
+    assert_eq!(tested["config"]["learner"], "averaged-ogd");
+    assert_eq!(
+        tested["config"]["loaded_learner"]["weights"],
+        taught["final_weights"]
+    );
+}
