@@ -13,7 +13,10 @@ fn main() {
     let memory = std::fs::read_to_string("memory-car.x").expect("read memory-car.x");
     let memory = if std::env::var_os("CARGO_FEATURE_REPLAY").is_some() {
         let car_flash = "FLASH : ORIGIN = 0x00000000, LENGTH = 128K";
-        assert!(memory.contains(car_flash), "memory-car.x: no line `{car_flash}`");
+        assert!(
+            memory.contains(car_flash),
+            "memory-car.x: no line `{car_flash}`"
+        );
         memory.replace(car_flash, "FLASH : ORIGIN = 0x00000000, LENGTH = 512K")
     } else {
         memory
