@@ -27,7 +27,7 @@ use crate::action::{ActionIndex, ActionMask};
 use crate::error::LearnError;
 use crate::evaluator::{Evaluation, Evaluator};
 use crate::feature::FeatureTable;
-use crate::feedback::{Feedback, Round};
+use crate::feedback::{Feedback, Round, SpanFeedback};
 use crate::learner::{Learner, OnlineLearner, Outcome};
 use crate::observation::{Observation, ObservationError, PathReference, ValidObservation};
 
@@ -200,18 +200,77 @@ impl Agent {
     }
 
     /// Learns from feedback about a recent `tick`.
+    ///
+    /// A [`SpanFeedback`] (good or bad over the last ticks up to `tick`) is learned from once for
+    /// every tick of its span the agent still holds, oldest first, all or none: the outcome is
+    /// the last step's, `stepped` if any step was taken. Ticks of the span older than the
+    /// agent's [`TICK_HISTORY`] are dropped ([`crate::feedback::span`]); a span none of whose
+    /// ticks is held is [`FeedbackError::UnknownTick`].
     pub fn feedback(&mut self, tick: u32, feedback: &Feedback) -> Result<Outcome, FeedbackError> {
+        if let Feedback::Span(span) = feedback {
+            return self.feedback_span(tick, span);
+        }
         let record = self
             .history
             .iter()
             .find(|r| r.tick == Some(tick))
             .ok_or(FeedbackError::UnknownTick(tick))?;
-        let round = Round::new(&record.features, record.allowed, record.chosen)
-            .and_then(|r| r.with_reference(record.reference))
-            .map_err(FeedbackError::Learn)?;
-        self.learner
-            .learn(&round, feedback)
-            .map_err(FeedbackError::Learn)
+        learn_at(&mut self.learner, record, feedback)
+    }
+
+    /// The ticks of a span ending at `tick` that the agent holds, as slots, oldest first.
+    fn span_slots(&self, tick: u32, span: &SpanFeedback) -> ([usize; TICK_HISTORY], usize) {
+        let mut slots = [0usize; TICK_HISTORY];
+        let mut n = 0;
+        for (i, r) in self.history.iter().enumerate() {
+            if let Some(t) = r.tick
+                && span.covers(tick, t)
+            {
+                slots[n] = i;
+                n += 1;
+            }
+        }
+        // Oldest first: by distance back from `tick`, largest first (an insertion sort of at
+        // most four entries).
+        let age = |i: usize| self.history[i].tick.map_or(0, |t| tick.wrapping_sub(t));
+        for k in 1..n {
+            let mut j = k;
+            while j > 0 && age(slots[j - 1]) < age(slots[j]) {
+                slots.swap(j - 1, j);
+                j -= 1;
+            }
+        }
+        (slots, n)
+    }
+
+    /// How many ticks of a span ending at `tick` the agent holds (what a
+    /// [`SpanFeedback`] would be applied to).
+    pub fn held_in_span(&self, tick: u32, span: &SpanFeedback) -> usize {
+        self.span_slots(tick, span).1
+    }
+
+    fn feedback_span(&mut self, tick: u32, span: &SpanFeedback) -> Result<Outcome, FeedbackError> {
+        span.check().map_err(FeedbackError::Learn)?;
+        let (slots, n) = self.span_slots(tick, span);
+        if n == 0 {
+            return Err(FeedbackError::UnknownTick(tick));
+        }
+        // On a copy, committed only when every step was taken.
+        let mut learner = self.learner;
+        let mut last = None;
+        let mut stepped = false;
+        // As a `Feedback`: the same learning path as every other kind (one copy of it).
+        let label = Feedback::Span(*span);
+        for &slot in &slots[..n] {
+            let outcome = learn_at(&mut learner, &self.history[slot], &label)?;
+            stepped |= outcome.stepped;
+            last = Some(outcome);
+        }
+        self.learner = learner;
+        Ok(Outcome {
+            stepped,
+            ..last.ok_or(FeedbackError::UnknownTick(tick))?
+        })
     }
 
     /// Forgets every remembered tick (a reset of the car), keeping the learner.
@@ -221,6 +280,20 @@ impl Agent {
         }
         self.next = 0;
     }
+}
+
+/// Learns from `feedback` about the tick `record` holds.
+fn learn_at(
+    learner: &mut Learner,
+    record: &TickRecord,
+    feedback: &Feedback,
+) -> Result<Outcome, FeedbackError> {
+    let round = Round::new(&record.features, record.allowed, record.chosen)
+        .and_then(|r| r.with_reference(record.reference))
+        .map_err(FeedbackError::Learn)?;
+    learner
+        .learn(&round, feedback)
+        .map_err(FeedbackError::Learn)
 }
 
 #[cfg(test)]

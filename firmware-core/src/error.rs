@@ -19,8 +19,9 @@ pub enum LearnError {
     ActionNotAllowed(ActionIndex),
     /// The feature table failed its check.
     Features(FeatureError),
-    /// The feedback carries no information: a preference between an action and itself, or a
-    /// semantic feedback without a statement.
+    /// The feedback carries no information: a preference between an action and itself, a
+    /// semantic feedback without a statement, a reward of 0, a ranking of fewer than two
+    /// actions or with an action twice, a span of no tick.
     DegenerateFeedback,
     /// A pseudo-loss was NaN, infinite or beyond [`crate::PSEUDO_LOSS_BOUND`].
     BadPseudoLoss,
@@ -31,6 +32,10 @@ pub enum LearnError {
     NoPathReference,
     /// A round's path reference is not finite or out of its bounds.
     BadPathReference,
+    /// A number the feedback carries is outside its stated range: a reward beyond ±1, a span of
+    /// more than [`crate::feedback::MAX_SPAN`] ticks, a corrected feature vector no trajectory
+    /// of the car could have (see each kind's documentation).
+    OutOfRange,
 }
 
 impl fmt::Display for LearnError {
@@ -48,6 +53,7 @@ impl fmt::Display for LearnError {
             LearnError::BadPathReference => {
                 f.write_str("path reference not finite or out of bounds")
             }
+            LearnError::OutOfRange => f.write_str("a number of the feedback is out of its range"),
         }
     }
 }

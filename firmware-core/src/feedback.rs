@@ -5,11 +5,20 @@
 //! shifted so that its minimum over the allowed actions is 0; `â = argmin Δ` is the action the
 //! feedback points to.
 //!
-//! | feedback | `Δ(a)` before the shift |
-//! |---|---|
-//! | [`ActionFeedback`] (the teacher's action `a*`) | 0 for `a*`, [`WRONG_ACTION_LOSS`] for every other action |
-//! | [`PreferenceFeedback`] (`a_p` preferred over `a_np`) | `‖φ_p − φ_a‖ − ‖φ_np − φ_a‖` |
-//! | [`SemanticFeedback`] (statements such as "avoid doors") | per statement: 0 for an action that does strictly better than the learner's choice on the statement's quantity, [`SEMANTIC_LOSS`] otherwise; statements add up |
+//! The paper's three kinds, then the rest of its Table 1 and beyond (each in a file of its own,
+//! with the cited work's definition and where ours differs):
+//!
+//! | feedback | `Δ(a)` before the shift | points at a better action? |
+//! |---|---|---|
+//! | [`ActionFeedback`] (the teacher's action `a*`) | 0 for `a*`, [`WRONG_ACTION_LOSS`] for every other action | yes: `a*` |
+//! | [`PreferenceFeedback`] (`a_p` preferred over `a_np`) | `‖φ_p − φ_a‖ − ‖φ_np − φ_a‖` | the better of two |
+//! | [`SemanticFeedback`] (statements such as "avoid doors") | per statement: 0 for an action that does strictly better than the learner's choice on the statement's quantity, [`SEMANTIC_LOSS`] otherwise; statements add up | the actions better on the subjects named |
+//! | [`PerturbationFeedback`] (the corrected trajectory's features `φ̄`, [`perturbation`]) | `‖φ(a) − φ̄‖` | the action nearest the correction |
+//! | [`RankingFeedback`] (K shown actions, best first, [`ranking`]) | `Σ_j c_j (‖φ_(1) − φ_a‖ − ‖φ_(j) − φ_a‖) / Σ_j c_j` | the best of K |
+//! | [`RewardFeedback`] (`r ∈ [−1, 1]` for the executed `a_t`, [`executed`]) | `r < 0`: [`EXECUTED_LOSS`]·`|r|` for `a_t`, 0 elsewhere; `r > 0`: 0 for `a_t`, [`EXECUTED_LOSS`]·`r` elsewhere | no: only "not `a_t`" (or "`a_t`") |
+//! | [`CorrectnessFeedback`] (`a_t` correct or incorrect, [`executed`]) | incorrect: [`EXECUTED_LOSS`] for `a_t`, 0 elsewhere; correct: the reverse | no |
+//! | [`EStopFeedback`] (the teacher stopped the car, [`executed`]) | [`EXECUTED_LOSS`] for `a_t`, 0 elsewhere | no |
+//! | [`SpanFeedback`] (good/bad over the last ticks, [`span`]) | correct/incorrect of each labelled tick's `a_t`, each tick the car still holds | no |
 //!
 //! A statement's *quantity* is its feature's value, except for a statement about the path ("stay
 //! on the path"): the paper judges the path by **cross-track error**, so such a statement compares
@@ -18,6 +27,12 @@
 //! error). A round learns its path reference with [`Round::with_reference`] (the
 //! [`crate::agent::Agent`] remembers each tick's); a statement about the path in a round without
 //! one is refused ([`LearnError::NoPathReference`]).
+//!
+//! Every kind is bounded (at most [`MAX_RANKED`] distances per action, no loop over anything
+//! longer than the 64 actions), allocates nothing and refuses what is malformed before it
+//! writes anything: an action the round does not allow, a degenerate feedback (a preference or
+//! a ranking with an action twice, no statement, a reward of 0, a span of no tick), a number
+//! out of its stated range ([`LearnError::OutOfRange`]).
 //!
 //! No correction means no pseudo-loss and no update: there is nothing to call.
 //!
@@ -35,6 +50,18 @@
 //! assert_eq!(delta[ActionIndex::new(9).unwrap()], 0.0);
 //! assert_eq!(delta[chosen], 100.0);
 //! ```
+
+pub mod executed;
+pub mod perturbation;
+pub mod ranking;
+pub mod span;
+
+pub use executed::{
+    CorrectnessFeedback, EStopFeedback, EXECUTED_LOSS, REWARD_STEPS, RewardFeedback,
+};
+pub use perturbation::{DeformedTrajectory, Milli, PUSH, PerturbationFeedback};
+pub use ranking::{MAX_RANKED, RankingFeedback};
+pub use span::{MAX_SPAN, SpanFeedback};
 
 use core::ops::Index;
 
@@ -223,10 +250,11 @@ pub trait PseudoLossSource {
     ) -> Result<(), LearnError>;
 
     /// Whether the feedback names the action the teacher holds best, so that its pseudo-loss
-    /// ranks that action above *every* other on its own. True for [`ActionFeedback`]. False (the
-    /// default) for feedback that judges actions only relative to the ones it compares: a
-    /// preference between two actions, statements about how the learner's choice could be
-    /// better. A learner may apply absolute feedback to any of its iterates, relative feedback
+    /// ranks that action above *every* other on its own. True for [`ActionFeedback`]. False
+    /// (the default) for feedback that judges actions only relative to the ones it compares or
+    /// to the executed one: a preference, a ranking, statements about how the learner's choice
+    /// could be better, a reward, correct/incorrect, a span, an E-stop; and for a perturbation,
+    /// whose margins are too small to be taken at another iterate (see [`perturbation`]). A learner may apply absolute feedback to any of its iterates, relative feedback
     /// only to the weights that chose the judged action (see [`crate::AveragedOgd`]).
     fn is_absolute(&self) -> bool {
         false
@@ -504,6 +532,132 @@ pub enum Feedback {
     Preference(PreferenceFeedback),
     /// Spoken rules.
     Semantic(SemanticFeedback),
+    /// The features of a corrected trajectory.
+    Perturbation(PerturbationFeedback),
+    /// A scalar reward for the executed action.
+    Reward(RewardFeedback),
+    /// The executed action was correct or incorrect.
+    Correctness(CorrectnessFeedback),
+    /// A good or bad label of the last ticks.
+    Span(SpanFeedback),
+    /// K shown actions, best first.
+    Ranking(RankingFeedback),
+    /// The teacher stopped the car.
+    EStop(EStopFeedback),
+}
+
+/// Every kind of [`Feedback`], without its content: the variant, in the same order.
+#[derive(Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Debug)]
+#[repr(u8)]
+pub enum FeedbackKind {
+    /// [`Feedback::Action`].
+    Action = 0,
+    /// [`Feedback::Preference`].
+    Preference = 1,
+    /// [`Feedback::Semantic`].
+    Semantic = 2,
+    /// [`Feedback::Perturbation`].
+    Perturbation = 3,
+    /// [`Feedback::Reward`].
+    Reward = 4,
+    /// [`Feedback::Correctness`].
+    Correctness = 5,
+    /// [`Feedback::Span`].
+    Span = 6,
+    /// [`Feedback::Ranking`].
+    Ranking = 7,
+    /// [`Feedback::EStop`].
+    EStop = 8,
+}
+
+impl FeedbackKind {
+    /// Every kind, in variant order.
+    pub const ALL: [FeedbackKind; 9] = [
+        FeedbackKind::Action,
+        FeedbackKind::Preference,
+        FeedbackKind::Semantic,
+        FeedbackKind::Perturbation,
+        FeedbackKind::Reward,
+        FeedbackKind::Correctness,
+        FeedbackKind::Span,
+        FeedbackKind::Ranking,
+        FeedbackKind::EStop,
+    ];
+
+    /// A short lower-case name: action, preference, semantic, perturbation, reward,
+    /// correctness, span, ranking, estop.
+    pub const fn name(self) -> &'static str {
+        match self {
+            FeedbackKind::Action => "action",
+            FeedbackKind::Preference => "preference",
+            FeedbackKind::Semantic => "semantic",
+            FeedbackKind::Perturbation => "perturbation",
+            FeedbackKind::Reward => "reward",
+            FeedbackKind::Correctness => "correctness",
+            FeedbackKind::Span => "span",
+            FeedbackKind::Ranking => "ranking",
+            FeedbackKind::EStop => "estop",
+        }
+    }
+
+    /// The kind called `name` (see [`FeedbackKind::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Whether a feedback of this kind can name an action better than the executed one. Reward,
+    /// correct/incorrect, spans and E-stops judge the executed action only (see [`executed`]).
+    pub const fn points_at_better(self) -> bool {
+        matches!(
+            self,
+            FeedbackKind::Action
+                | FeedbackKind::Preference
+                | FeedbackKind::Semantic
+                | FeedbackKind::Perturbation
+                | FeedbackKind::Ranking
+        )
+    }
+}
+
+impl core::fmt::Display for FeedbackKind {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl Feedback {
+    /// Its kind.
+    pub const fn kind(&self) -> FeedbackKind {
+        match self {
+            Feedback::Action(_) => FeedbackKind::Action,
+            Feedback::Preference(_) => FeedbackKind::Preference,
+            Feedback::Semantic(_) => FeedbackKind::Semantic,
+            Feedback::Perturbation(_) => FeedbackKind::Perturbation,
+            Feedback::Reward(_) => FeedbackKind::Reward,
+            Feedback::Correctness(_) => FeedbackKind::Correctness,
+            Feedback::Span(_) => FeedbackKind::Span,
+            Feedback::Ranking(_) => FeedbackKind::Ranking,
+            Feedback::EStop(_) => FeedbackKind::EStop,
+        }
+    }
+}
+
+/// `$body` with `$f` bound to the feedback inside `$fb`, whatever its kind (a `match`, not a
+/// trait object: a vtable would keep every kind's every method in the firmware).
+macro_rules! each_kind {
+    ($fb:expr, $f:ident => $body:expr) => {
+        match $fb {
+            Feedback::Action($f) => $body,
+            Feedback::Preference($f) => $body,
+            Feedback::Semantic($f) => $body,
+            Feedback::Perturbation($f) => $body,
+            Feedback::Reward($f) => $body,
+            Feedback::Correctness($f) => $body,
+            Feedback::Span($f) => $body,
+            Feedback::Ranking($f) => $body,
+            Feedback::EStop($f) => $body,
+        }
+    };
 }
 
 impl PseudoLossSource for Feedback {
@@ -512,27 +666,22 @@ impl PseudoLossSource for Feedback {
         round: &Round<'_>,
         out: &mut [f32; MAX_ACTIONS],
     ) -> Result<(), LearnError> {
-        match self {
-            Feedback::Action(f) => f.write_pseudo_loss(round, out),
-            Feedback::Preference(f) => f.write_pseudo_loss(round, out),
-            Feedback::Semantic(f) => f.write_pseudo_loss(round, out),
-        }
+        each_kind!(self, f => f.write_pseudo_loss(round, out))
     }
 
     fn is_absolute(&self) -> bool {
-        match self {
-            Feedback::Action(f) => f.is_absolute(),
-            Feedback::Preference(f) => f.is_absolute(),
-            Feedback::Semantic(f) => f.is_absolute(),
-        }
+        each_kind!(self, f => f.is_absolute())
     }
 
+    /// Action feedback takes its shortcut; every other kind writes its raw values, checked and
+    /// shifted here once (one copy of the check in the firmware, not one per kind).
     fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
-        match self {
-            Feedback::Action(f) => f.to_pseudo_loss(round),
-            Feedback::Preference(f) => f.to_pseudo_loss(round),
-            Feedback::Semantic(f) => f.to_pseudo_loss(round),
+        if let Feedback::Action(f) = self {
+            return f.to_pseudo_loss(round);
         }
+        let mut raw = [0.0f32; MAX_ACTIONS];
+        self.write_pseudo_loss(round, &mut raw)?;
+        Ok(PseudoLoss::from_raw(raw, round.allowed())?.with_absolute(self.is_absolute()))
     }
 }
 
@@ -553,3 +702,22 @@ impl From<SemanticFeedback> for Feedback {
         Feedback::Semantic(f)
     }
 }
+
+macro_rules! feedback_from {
+    ($($t:ident => $v:ident),*) => {$(
+        impl From<$t> for Feedback {
+            fn from(f: $t) -> Self {
+                Feedback::$v(f)
+            }
+        }
+    )*};
+}
+
+feedback_from!(
+    PerturbationFeedback => Perturbation,
+    RewardFeedback => Reward,
+    CorrectnessFeedback => Correctness,
+    SpanFeedback => Span,
+    RankingFeedback => Ranking,
+    EStopFeedback => EStop
+);

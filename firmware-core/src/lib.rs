@@ -28,7 +28,9 @@
 //! * [`policy`]: `argmax_a w·φ(s, a)` over the actions an [`ActionMask`] allows, ties to the
 //!   lowest index.
 //! * [`feedback`]: what the teacher says (the action it wanted, a preference between two actions,
-//!   spoken rules) and the [`PseudoLoss`] each becomes.
+//!   spoken rules, a corrected trajectory, a ranking of K actions, a reward, correct/incorrect,
+//!   good/bad over the last ticks, an E-stop: every kind of the paper's Table 1) and the
+//!   [`PseudoLoss`] each becomes; any mix of kinds may arrive in one stream.
 //! * [`surrogate`]: the generalized hinge (and the perceptron loss) over a pseudo-loss: value and
 //!   subgradient.
 //! * [`learner`]: online learners behind [`OnlineLearner`] (OGD constant and `1/√t`, averaged OGD,
@@ -114,9 +116,10 @@ pub use feature::{
     Weights, dot,
 };
 pub use feedback::{
-    ActionFeedback, Feedback, PSEUDO_LOSS_BOUND, Polarity, PreferenceFeedback, PseudoLoss,
-    PseudoLossSource, Round, SEMANTIC_LOSS, SemanticFeedback, Statement, WRONG_ACTION_LOSS,
-    pseudo_loss,
+    ActionFeedback, CorrectnessFeedback, EStopFeedback, Feedback, FeedbackKind, MAX_RANKED,
+    MAX_SPAN, PSEUDO_LOSS_BOUND, PerturbationFeedback, Polarity, PreferenceFeedback, PseudoLoss,
+    PseudoLossSource, RankingFeedback, RewardFeedback, Round, SEMANTIC_LOSS, SemanticFeedback,
+    SpanFeedback, Statement, WRONG_ACTION_LOSS, pseudo_loss,
 };
 pub use learner::{
     AdaGrad, AveragedOgd, Coactive, GRADIENT_BOUND, Learner, LearnerKind, LearnerParams,

@@ -1,13 +1,29 @@
-//! Puts memory.x where cortex-m-rt's link.x finds it; writes the car's key, read from the key
+//! Puts the memory map (memory-car.x; 512 KiB of flash for the replay image's recorded ticks)
+//! where cortex-m-rt's link.x finds it as memory.x; writes the car's key, read from the key
 //! file named by `CAR_KEY_FILE` (`hil_mock keygen FILE`), into OUT_DIR/key.rs (the image
 //! refuses to build without one, unless the feature `insecure` asks for the public all-zero
 //! key); with the `replay` feature, copies the recorded ticks named by `REPLAY_TICKS` into
 //! OUT_DIR for `include_bytes!`.
 fn main() {
     let out = std::path::PathBuf::from(std::env::var_os("OUT_DIR").expect("OUT_DIR"));
-    std::fs::copy("memory.x", out.join("memory.x")).expect("copy memory.x");
+    // The car's memory map, memory-car.x, becomes OUT_DIR/memory.x (not named memory.x in the
+    // package: the linker would find it there first). The replay image (a measurement tool,
+    // never the car's) holds the recorded ticks as data besides the code and may use all
+    // 512 KiB of the emulated machine's code memory; every other image keeps the 128 KiB.
+    let memory = std::fs::read_to_string("memory-car.x").expect("read memory-car.x");
+    let memory = if std::env::var_os("CARGO_FEATURE_REPLAY").is_some() {
+        let car_flash = "FLASH : ORIGIN = 0x00000000, LENGTH = 128K";
+        assert!(
+            memory.contains(car_flash),
+            "memory-car.x: no line `{car_flash}`"
+        );
+        memory.replace(car_flash, "FLASH : ORIGIN = 0x00000000, LENGTH = 512K")
+    } else {
+        memory
+    };
+    std::fs::write(out.join("memory.x"), memory).expect("write memory.x");
     println!("cargo:rustc-link-search={}", out.display());
-    println!("cargo:rerun-if-changed=memory.x");
+    println!("cargo:rerun-if-changed=memory-car.x");
     println!("cargo:rerun-if-env-changed=REPLAY_TICKS");
     println!("cargo:rerun-if-env-changed=CAR_KEY_FILE");
     let key = match std::env::var_os("CAR_KEY_FILE") {

@@ -58,10 +58,12 @@ enum Command {
     /// Run one experiment: a learner taught by a programmatic teacher in a household.
     ///
     /// Writes DIR/steps.csv (one row per control tick: step, action, teacher_action,
-    /// latent_loss, corrected, corrections, collision, reset, lap, progress, x, y, theta; units
-    /// in docs/outputs.md), DIR/summary.json (configuration, seed, final weights by feature,
-    /// totals, mean latent loss of the first and last 10% of the steps, wall time) and
-    /// DIR/run.png and run.svg (the latent loss and the corrections against the tick).
+    /// latent_loss, corrected, corrections, collision, reset, lap, progress, x, y, theta,
+    /// feedback (the kind given, if any), effort_s (a person's seconds for it); units in
+    /// docs/outputs.md), DIR/summary.json (configuration, seed, final weights by feature,
+    /// totals with the effort and the feedback of each kind, mean latent loss of the first and
+    /// last 10% of the steps, wall time) and DIR/run.png and run.svg (the latent loss and the
+    /// corrections against the tick).
     Run(RunArgs),
     /// Teach the car yourself, from a web page: a console on 127.0.0.1 (the URL with its
     /// one-time token is printed; nothing is opened by itself). The learner runs in this process,
@@ -157,11 +159,29 @@ struct RunArgs {
     /// the path of a scenario TOML file.
     #[arg(long, default_value = "doors")]
     scenario: String,
-    /// How the learner is taught: action (the teacher's action), preference (learner's action
-    /// vs a random one), semantic (statements such as "avoid doors"), bc (behaviour cloning on
-    /// the teacher's demonstration of the run's first 50 ticks, then frozen), teacher (the
-    /// teacher's own policy drives, frozen).
-    #[arg(long, default_value = "action")]
+    /// How the learner is taught. One kind of feedback (the teacher corrects when its perceived
+    /// latent loss of the learner's action exceeds the threshold, and says):
+    ///
+    ///   action        the action it wanted
+    ///   preference    which of two (the learner's and a random one) it prefers
+    ///   semantic      statements such as "avoid doors", "stay on the path"
+    ///   perturbation  it pushes the learner's trajectory half way towards the one it wanted
+    ///                 (the pushed trajectory's features go to the car)
+    ///   reward        a score of the learner's action in [-1, 1] (-1 for a perceived loss of 10
+    ///                 or more)
+    ///   correctness   "incorrect" about the learner's action
+    ///   span          "bad" about a stretch of up to 4 ticks it would correct, once it ends
+    ///   ranking       the order of 4 shown actions (the learner's and 3 random ones)
+    ///   estop         it stops the car (the car stands this tick)
+    ///
+    /// Or several kinds in one stream: mix:KIND=WEIGHT,... draws the kind of each correction
+    /// with these weights from the run's seed (any non-negative numbers, at least one positive,
+    /// each kind once; e.g. mix:action=0.2,preference=0.3,semantic=0.5), mix:all (the nine in
+    /// equal parts), cheapest (the kind cheapest for a person that is still informative; the
+    /// effort each kind costs is in `host-sim/src/teach/kinds.rs`). Or no online learning: bc
+    /// (behaviour cloning on the teacher's demonstration of the run's first 50 ticks, then
+    /// frozen), teacher (the teacher's own policy drives, frozen).
+    #[arg(long, default_value = "action", value_parser = parse_mode, verbatim_doc_comment)]
     feedback: Mode,
     /// Number of control ticks (0.1 s each), 1 to 10 000 000.
     #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
@@ -216,6 +236,10 @@ fn car_link(args: &RunArgs, config: &RunConfig) -> Result<Box<dyn experiment::Ca
             None => Box::new(InProcessLink::new(config.learner)?),
         },
     )
+}
+
+fn parse_mode(s: &str) -> Result<Mode, String> {
+    Mode::parse(s)
 }
 
 fn run_config(args: &RunArgs) -> Result<RunConfig> {

@@ -44,7 +44,7 @@ fn run_writes_the_csv_and_the_summary() {
     assert_eq!(lines.len(), 121);
     assert_eq!(
         lines[0],
-        "step,action,teacher_action,latent_loss,corrected,corrections,collision,reset,lap,progress,x,y,theta"
+        "step,action,teacher_action,latent_loss,corrected,corrections,collision,reset,lap,progress,x,y,theta,feedback,effort_s"
     );
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();

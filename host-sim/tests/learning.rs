@@ -10,7 +10,7 @@ use host_sim::teach::bc;
 use host_sim::teach::experiment::{self, Mode, RunConfig, StartJitter};
 use host_sim::teach::record::RunReport;
 use host_sim::world::registry;
-use host_sim::world::teacher::FeedbackKind;
+use host_sim::world::teacher::{FeedbackKind, PAPER_KINDS};
 
 /// Seeds per test.
 const SEEDS: u64 = 8;
@@ -166,7 +166,7 @@ fn behaviour_cloning_is_fitted_on_ticks_0_to_49_then_frozen() {
 /// each, margins of at least 2.7 times.
 #[test]
 fn run_s_default_learners_learn_over_seeds() {
-    for kind in FeedbackKind::ALL {
+    for kind in PAPER_KINDS {
         let learner = LearnerParams::new(host_sim::teach::learners::default_learner(Mode::Online(
             kind,
         )));

@@ -33,7 +33,10 @@ fn reproduce(out: &Path, extra: &[&str]) -> Output {
     host_sim(&args)
 }
 
-const CSVS: [&str; 6] = [
+const CSVS: [&str; 9] = [
+    "kinds.csv",
+    "kinds_curves.csv",
+    "kinds_alpha.csv",
     "variety.csv",
     "noise.csv",
     "noise_sweep.csv",
@@ -42,7 +45,11 @@ const CSVS: [&str; 6] = [
     "paths.csv",
 ];
 
-const FIGURES: [&str; 8] = [
+const FIGURES: [&str; 12] = [
+    "kinds_loss",
+    "kinds_corrections",
+    "kinds_effort",
+    "kinds_progress",
     "task_success",
     "variety",
     "noise",
@@ -132,6 +139,11 @@ fn a_short_reproduction_writes_every_output_and_checks_every_claim() {
     // Per-step CSVs: one row per step of every setting.
     let variety = std::fs::read_to_string(out.join("variety.csv")).unwrap();
     assert_eq!(variety.lines().count(), 1 + 12 * 40);
+    let kinds = host_sim::report::kinds::settings().len();
+    let curves = std::fs::read_to_string(out.join("kinds_curves.csv")).unwrap();
+    assert_eq!(curves.lines().count(), 1 + kinds * 40);
+    let summary = std::fs::read_to_string(out.join("kinds.csv")).unwrap();
+    assert_eq!(summary.lines().count(), 1 + kinds);
     let sweep = std::fs::read_to_string(out.join("noise_sweep.csv")).unwrap();
     assert_eq!(
         sweep.lines().count(),
@@ -221,6 +233,21 @@ fn a_short_reproduction_writes_every_output_and_checks_every_claim() {
             holds_everywhere || (report.contains(&picture) && out.join(&picture).exists()),
             "claim {}",
             i + 1
+        );
+    }
+
+    // The kinds section: every world's table, every kind's α row.
+    assert!(report.contains("## Every kind of feedback, and mixed streams (issue 15)"));
+    for w in host_sim::report::kinds::KIND_WORLDS {
+        assert!(report.contains(&format!("### {w}\n")), "{w}");
+    }
+    for k in firmware_core::FeedbackKind::ALL {
+        assert!(
+            report
+                .lines()
+                .any(|l| l.starts_with(&format!("| {} | ", k.name()))),
+            "{}",
+            k.name()
         );
     }
 }

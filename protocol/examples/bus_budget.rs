@@ -5,12 +5,13 @@
 //! cargo run -p protocol --example bus_budget
 //! ```
 
+use firmware_core::FeedbackKind;
 use protocol::budget::{
     Bus, CONTROL_RATE_HZ, MAX_TICK_LOAD_PERCENT, TICK_TRAFFIC, classic_message_bits,
     fd_message_bits, tick_load_percent,
 };
 use protocol::isotp::{FrameMode, frame_count};
-use protocol::message::MessageKind;
+use protocol::message::{FeedbackMessage, MessageKind};
 
 const BUSES: [(&str, Bus); 3] = [
     ("classic 1 Mbit/s", Bus::CLASSIC_1M),
@@ -42,6 +43,27 @@ fn main() {
             fd.data,
             Bus::CLASSIC_1M.message_time_ns(n) as f64 / 1e3,
             Bus::FD_1M_5M.message_time_ns(n) as f64 / 1e3,
+        );
+    }
+
+    println!(
+        "\nThe feedback message by kind of feedback (the table's feedback row is the largest):\n"
+    );
+    println!(
+        "| feedback kind | bytes | frames classic | µs classic 1M | tick load classic 1M (%) |"
+    );
+    println!("|---|---:|---:|---:|---:|");
+    let largest = MessageKind::Feedback.max_encoded_size();
+    let tick_ns = protocol::budget::tick_time_ns(Bus::CLASSIC_1M);
+    for kind in FeedbackKind::ALL {
+        let n = FeedbackMessage::max_encoded_size_of(kind);
+        let ns = Bus::CLASSIC_1M.message_time_ns(n);
+        let tick = tick_ns - Bus::CLASSIC_1M.message_time_ns(largest) + ns;
+        println!(
+            "| {kind} | {n} | {} | {:.1} | {:.2} |",
+            frame_count(n, FrameMode::Classic),
+            ns as f64 / 1e3,
+            percent(tick)
         );
     }
 

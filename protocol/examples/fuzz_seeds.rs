@@ -16,8 +16,9 @@ use std::path::PathBuf;
 use firmware_core::feature::Feature;
 use firmware_core::observation::{Observation, SemanticClass, SemanticObject};
 use firmware_core::{
-    ActionFeedback, ActionIndex, ActionMask, Feedback, Learner, LearnerParams, PreferenceFeedback,
-    SemanticFeedback,
+    ActionFeedback, ActionIndex, ActionMask, CorrectnessFeedback, EStopFeedback, Feedback, Learner,
+    LearnerParams, PerturbationFeedback, PreferenceFeedback, RankingFeedback, RewardFeedback,
+    SemanticFeedback, SpanFeedback,
 };
 use protocol::can::{CanFrame, FD_LENGTHS};
 use protocol::isotp::{FrameMode, Segmenter};
@@ -50,6 +51,15 @@ fn messages() -> Vec<(&'static str, Message)> {
         seq: 250,
     };
     let feedback = |tick, feedback| Message::Feedback(FeedbackMessage { id, tick, feedback });
+    // The kinds of issue 15, each under a sequence number of its own (a session seed applies
+    // them all).
+    let numbered = |seq, tick, feedback| {
+        Message::Feedback(FeedbackMessage {
+            id: DeliveryId { session: 3, seq },
+            tick,
+            feedback,
+        })
+    };
     let learner = Learner::new(LearnerParams::default().check().expect("default is valid"));
     vec![
         (
@@ -100,6 +110,58 @@ fn messages() -> Vec<(&'static str, Message)> {
                         .prefer(Feature::Right),
                 ),
             ),
+        ),
+        (
+            "feedback_perturbation",
+            numbered(
+                251,
+                38,
+                Feedback::Perturbation(
+                    PerturbationFeedback::new(&[9.5, 10.0, 3.25, 10.0, 0.75, -2.5])
+                        .expect("in range"),
+                ),
+            ),
+        ),
+        (
+            "feedback_reward",
+            numbered(
+                252,
+                37,
+                Feedback::Reward(RewardFeedback::new(-0.4).expect("in range")),
+            ),
+        ),
+        (
+            "feedback_correctness",
+            numbered(
+                253,
+                36,
+                Feedback::Correctness(CorrectnessFeedback { correct: false }),
+            ),
+        ),
+        (
+            "feedback_span",
+            numbered(
+                254,
+                35,
+                Feedback::Span(SpanFeedback {
+                    ticks: 4,
+                    good: false,
+                }),
+            ),
+        ),
+        (
+            "feedback_ranking",
+            numbered(
+                255,
+                34,
+                Feedback::Ranking(
+                    RankingFeedback::new(&[a(3), a(17), a(0), a(63)], true).expect("four"),
+                ),
+            ),
+        ),
+        (
+            "feedback_estop",
+            numbered(0, 33, Feedback::EStop(EStopFeedback)),
         ),
         ("ack", Message::Ack(protocol::message::Ack { id })),
         (
@@ -324,7 +386,26 @@ fn main() -> std::io::Result<()> {
     ];
     std::fs::write(node_dir.join("session_classic.bin"), session(0, &taught))?;
     std::fs::write(node_dir.join("session_fd.bin"), session(4, &taught))?;
-    count += 2;
+    // A mixed stream: every kind of feedback about recent ticks, an E-stop, a refused one.
+    let mixed = [
+        "hello",
+        "configure",
+        "observation_open",
+        "observation_full",
+        "feedback_perturbation",
+        "feedback_reward",
+        "observation_open",
+        "feedback_correctness",
+        "feedback_span",
+        "feedback_ranking",
+        "feedback_estop",
+        "observation_full",
+        "feedback_semantic",
+        "poll",
+    ];
+    std::fs::write(node_dir.join("mixed_classic.bin"), session(0, &mixed))?;
+    std::fs::write(node_dir.join("mixed_fd.bin"), session(4, &mixed))?;
+    count += 4;
     // slcan lines: the frames of a few messages, adapter commands, acknowledgements, garbage.
     let mut lines = Vec::new();
     for n in ["configure", "feedback_semantic", "heartbeat"] {

@@ -18,6 +18,7 @@
 //! | observation of tick `t` | configured: `agent.act(t, obs)`, drives (or stands if every trajectory collides), feeds the watchdog | [`Message::Action`] of `t` with the collision mask; [`ErrorCode::Observation`] if refused; [`ErrorCode::NotConfigured`] without a configured learner |
 //! | feedback `id` about tick `t` | of the configured session: applies it once ([`FeedbackReceiver`]), one generation more, persisted *before* the ack | [`Message::Ack`] / [`Message::Nack`], the same for every copy; [`ErrorCode::Internal`] when persisting failed (no ack: the host retransmits) |
 //! | feedback of another session | a copy of one applied then: nothing | its recorded answer; otherwise [`NackCode::WrongSession`] |
+//! | an E-stop ([`firmware_core::EStopFeedback`]), any session, every copy | first stands (keeping its ticks, so later feedback about them still applies), then as any feedback | a stop ([`StopReason::EStop`]), then the feedback's answer |
 //! | configure `(s, snapshot)` | `s` = the next session (any, if none): `Learner::restore(snapshot)`, generation 0, forgets its ticks, stops, persists; `s` = the current session: nothing (a copy) | [`Message::Weights`]; [`ErrorCode::Params`] / [`ErrorCode::Session`] if refused |
 //! | weights request | nothing | [`Message::Weights`] |
 //! | heartbeat | nothing | [`Message::Heartbeat`] |
@@ -25,8 +26,8 @@
 //! | hello | moves its freshness window to the host's counter (same epoch) | [`Message::Welcome`]: epoch, counters, [`CarStatus`] |
 //! | a lost message (reassembly, decode, wrong stream) | nothing | [`Message::Error`] with its code, at most one per [`ERROR_REPORT_INTERVAL_MS`] |
 //!
-//! **Safe state.** The car stands before its first action, after a watchdog stop, a reset or a
-//! new configuration, and while every trajectory collides; only an accepted observation of a
+//! **Safe state.** The car stands before its first action, after a watchdog stop, a reset, a
+//! new configuration or an E-stop, and while every trajectory collides; only an accepted observation of a
 //! configured learner makes it drive. A reset or a new configuration commands a stop at once.
 //! No message disarms the watchdog: once observations have been coming, a gap of
 //! [`CarConfig::watchdog_ms`] while driving makes [`CarNode::poll`] command a stop
@@ -87,7 +88,7 @@
 use core::fmt;
 
 use firmware_core::agent::Agent;
-use firmware_core::{Learner, LearnerSnapshot, SnapshotError, ValidLearnerParams};
+use firmware_core::{Feedback, Learner, LearnerSnapshot, SnapshotError, ValidLearnerParams};
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
@@ -179,6 +180,8 @@ pub struct CarStats {
     pub watchdog_stops: u32,
     /// Stops commanded because of a reset or a new configuration.
     pub commanded_stops: u32,
+    /// Stops commanded by the teacher's E-stops (every copy).
+    pub estops: u32,
     /// Feedback applied to the learner (each delivery once).
     pub feedback_applied: u32,
     /// Copies of feedback already answered: acked or nacked again, not applied.
@@ -201,6 +204,7 @@ impl CarStats {
         actions: 0,
         watchdog_stops: 0,
         commanded_stops: 0,
+        estops: 0,
         feedback_applied: 0,
         feedback_duplicates: 0,
         feedback_refused: 0,
@@ -493,6 +497,18 @@ impl CarNode {
         bus: &mut B,
         store: &mut P,
     ) -> Result<(), B::Error> {
+        if matches!(f.feedback, Feedback::EStop(_)) {
+            // The teacher stopped the car: stand at once, whatever becomes of the learning, and
+            // keep the ticks (feedback about them may follow). Every copy stops it again: an
+            // E-stop is never lost to the dedupe window, and standing is always safe.
+            self.stopped = true;
+            bump(&mut self.stats.estops);
+            let tick = self.last_tick();
+            self.send(
+                bus,
+                &Message::Action(ActionCommand::stop(tick, StopReason::EStop)),
+            )?;
+        }
         if self.session != Some(f.id.session) {
             // Never applied here; a copy of one applied in an earlier session gets its answer.
             let reply = match self.receiver.recorded(f.id) {
@@ -928,6 +944,51 @@ mod tests {
             )
             .unwrap();
         assert_eq!(*reference.learner(), after);
+    }
+
+    #[test]
+    fn an_e_stop_stops_the_car_first_keeps_its_ticks_and_is_learned_once() {
+        let mut b = Bench::configured();
+        b.observe(1, 0);
+        b.observe(2, 1);
+        assert!(!b.car.stopped());
+        let before = *b.car.agent().learner();
+        let estop = |seq| {
+            Message::Feedback(FeedbackMessage {
+                id: DeliveryId { session: 4, seq },
+                tick: 2,
+                feedback: Feedback::EStop(firmware_core::EStopFeedback),
+            })
+        };
+        assert_eq!(b.send(&estop(0), 2), [stop(2, StopReason::EStop), ack(0)]);
+        assert!(b.car.stopped());
+        let after = *b.car.agent().learner();
+        assert_ne!(
+            after, before,
+            "the executed action was learned as unacceptable"
+        );
+        // A copy: stops again, acked again, not learned again.
+        assert_eq!(b.send(&estop(0), 3), [stop(2, StopReason::EStop), ack(0)]);
+        assert_eq!(*b.car.agent().learner(), after);
+        // The ticks are kept: feedback about tick 1 still applies.
+        assert_eq!(b.send(&feedback(1, 1, 3), 4), [ack(1)]);
+        // An E-stop of another session stops the car too, and is refused.
+        let mut other = estop(9);
+        if let Message::Feedback(f) = &mut other {
+            f.id.session = 7;
+        }
+        assert_eq!(
+            b.send(&other, 5),
+            [
+                stop(2, StopReason::EStop),
+                nack(7, 9, NackCode::WrongSession)
+            ]
+        );
+        let s = b.car.stats();
+        assert_eq!((s.estops, s.feedback_applied), (3, 2));
+        // The next observation drives again.
+        b.observe(3, 6);
+        assert!(!b.car.stopped());
     }
 
     #[test]

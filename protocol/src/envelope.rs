@@ -26,7 +26,7 @@
 //! let mut buf = [0u8; 8];
 //! let sealed = protocol::seal(&300u16, &mut buf).unwrap();
 //! let env = Envelope::new_checked(sealed).unwrap();
-//! assert_eq!((env.version(), env.payload()), (3, &[0xAC, 0x02][..]));
+//! assert_eq!((env.version(), env.payload()), (4, &[0xAC, 0x02][..]));
 //! assert_eq!(Envelope::new_checked(&sealed[..2]).unwrap_err(), EnvelopeError::Truncated);
 //! ```
 
@@ -40,8 +40,10 @@ use serde::{Deserialize, Serialize};
 /// carries a session and a learner snapshot, the weights request is appended; 3, authenticated
 /// PDUs on the wire (AES-128-CMAC and freshness, [`crate::secure`]), the observation and the
 /// track quantized, stop reasons, the heartbeat without a counter, the car's status in the
-/// weights report, the hello/welcome handshake, new nack and error codes.
-pub const PROTOCOL_VERSION: u8 = 3;
+/// weights report, the hello/welcome handshake, new nack and error codes; 4, every kind of
+/// feedback of the paper's Table 1 (perturbation, reward, correct/incorrect, good/bad spans,
+/// rankings, E-stop: variants 3 to 8 of the feedback) and the E-stop's stop reason.
+pub const PROTOCOL_VERSION: u8 = 4;
 
 /// Bytes the envelope adds to a payload: the version byte and the CRC.
 pub const ENVELOPE_OVERHEAD: usize = 3;
@@ -200,9 +202,9 @@ mod tests {
         });
         let mut buf = [0u8; 16];
         let bytes = seal(&fb, &mut buf).unwrap();
-        // version 3, variant 0 (Action), action 17, then the CRC (computed independently).
-        assert_eq!(CRC16.checksum(&[3, 0, 17]).to_le_bytes(), [0xDC, 0x97]);
-        assert_eq!(bytes, &[3, 0, 17, 0xDC, 0x97]);
+        // version 4, variant 0 (Action), action 17, then the CRC (computed independently).
+        assert_eq!(CRC16.checksum(&[4, 0, 17]).to_le_bytes(), [0x4C, 0x12]);
+        assert_eq!(bytes, &[4, 0, 17, 0x4C, 0x12]);
         assert_eq!(
             CRC16.checksum(b"123456789"),
             0x29B1,

@@ -10,7 +10,7 @@
 //! |---|---|---|---|
 //! | 0 | [`Message::Observation`] | host → car | [`ObservationMessage`]: tick number and [`Observation`] (quantized, [`crate::quantize`]) |
 //! | 1 | [`Message::Action`] | car → host | [`ActionCommand`]: tick number, the trajectory to track or a stop and its reason, the collision mask |
-//! | 2 | [`Message::Feedback`] | host → car | [`FeedbackMessage`]: delivery id, tick number, [`Feedback`] |
+//! | 2 | [`Message::Feedback`] | host → car | [`FeedbackMessage`]: delivery id, tick number, [`Feedback`] of any kind (table below) |
 //! | 3 | [`Message::Ack`] | car → host | [`Ack`]: the delivery id of an applied feedback |
 //! | 4 | [`Message::Nack`] | car → host | [`Nack`]: the delivery id of a refused feedback and why |
 //! | 5 | [`Message::Heartbeat`] | both | nothing (the freshness counter of its PDU counts) |
@@ -21,6 +21,24 @@
 //! | 10 | [`Message::WeightsRequest`] | host → car | nothing; answered with [`Message::Weights`] |
 //! | 11 | [`Message::Hello`] | host → car | [`Hello`]: a nonce and the host's freshness; answered with [`Message::Welcome`] |
 //! | 12 | [`Message::Welcome`] | car → host | [`Welcome`]: the nonce, the car's freshness and [`CarStatus`] |
+//!
+//! The [`Feedback`] is itself a variant number and its fields:
+//!
+//! | # | kind | fields | payload bytes |
+//! |---|---|---|---|
+//! | 0 | action | the teacher's action | 1 |
+//! | 1 | preference | preferred, other | 2 |
+//! | 2 | semantic | six optional polarities, in feature order | 6–12 |
+//! | 3 | perturbation | the corrected trajectory's six features, fixed-width `i16` thousandths | 12 |
+//! | 4 | reward | `i8` hundredths in −100…100 | 1 |
+//! | 5 | correctness | correct (a bool) | 1 |
+//! | 6 | span | ticks (`u8`, up to 50), good (a bool) | 2 |
+//! | 7 | ranking | the shown actions best first (a length, then one byte each, up to 8), ordered | 3–10 |
+//! | 8 | E-stop | nothing | 0 |
+//!
+//! Decoding checks the layout (action indices, the ranking's length); the numbers' ranges are
+//! checked by `firmware-core` when the car learns from them, and refused with a
+//! [`Nack`] ([`NackCode::Rejected`]).
 //!
 //! The variant number is the first payload byte (a postcard varint); variants and fields are
 //! never reordered within a protocol version (the golden-bytes tests pin them). The largest
@@ -54,7 +72,7 @@ use core::fmt;
 use firmware_core::agent::FeedbackError;
 use firmware_core::lattice::{self, MAX_PLANNING_STEERING};
 use firmware_core::observation::MAX_SPEED;
-use firmware_core::{ActionIndex, ActionMask, Feedback, LearnerSnapshot};
+use firmware_core::{ActionIndex, ActionMask, Feedback, FeedbackKind, LearnerSnapshot};
 use postcard::experimental::max_size::MaxSize;
 use serde::{Deserialize, Serialize};
 
@@ -218,6 +236,9 @@ pub enum StopReason {
     Reset,
     /// A new learner was configured.
     Reconfigured,
+    /// The teacher stopped the car ([`firmware_core::EStopFeedback`]): it stands until its next
+    /// observation.
+    EStop,
 }
 
 impl fmt::Display for StopReason {
@@ -227,6 +248,7 @@ impl fmt::Display for StopReason {
             StopReason::Watchdog => "watchdog: no observation in time",
             StopReason::Reset => "reset by the host",
             StopReason::Reconfigured => "a new learner was configured",
+            StopReason::EStop => "stopped by the teacher (E-stop)",
         })
     }
 }
@@ -382,6 +404,36 @@ pub struct FeedbackMessage {
     pub tick: u32,
     /// The teacher's feedback.
     pub feedback: Feedback,
+}
+
+impl FeedbackMessage {
+    /// The largest secured feedback message carrying a feedback of `kind` (version, payload,
+    /// freshness byte and MAC), in bytes: the bus budget of each kind
+    /// (`cargo run -p protocol --example bus_budget`). The largest of them is
+    /// [`MessageKind::Feedback`]'s [`MessageKind::max_encoded_size`].
+    pub const fn max_encoded_size_of(kind: FeedbackKind) -> usize {
+        use firmware_core::{
+            ActionFeedback, CorrectnessFeedback, EStopFeedback, PerturbationFeedback,
+            PreferenceFeedback, RankingFeedback, RewardFeedback, SemanticFeedback, SpanFeedback,
+        };
+        let content = match kind {
+            FeedbackKind::Action => ActionFeedback::POSTCARD_MAX_SIZE,
+            FeedbackKind::Preference => PreferenceFeedback::POSTCARD_MAX_SIZE,
+            FeedbackKind::Semantic => SemanticFeedback::POSTCARD_MAX_SIZE,
+            FeedbackKind::Perturbation => PerturbationFeedback::POSTCARD_MAX_SIZE,
+            FeedbackKind::Reward => RewardFeedback::POSTCARD_MAX_SIZE,
+            FeedbackKind::Correctness => CorrectnessFeedback::POSTCARD_MAX_SIZE,
+            FeedbackKind::Span => SpanFeedback::POSTCARD_MAX_SIZE,
+            FeedbackKind::Ranking => RankingFeedback::POSTCARD_MAX_SIZE,
+            FeedbackKind::EStop => EStopFeedback::POSTCARD_MAX_SIZE,
+        };
+        SECURED_OVERHEAD
+            + TAG
+            + DeliveryId::POSTCARD_MAX_SIZE
+            + u32::POSTCARD_MAX_SIZE
+            + TAG
+            + content
+    }
 }
 
 /// The feedback `id` was applied (now or the first time it arrived).
@@ -824,10 +876,12 @@ impl From<ActionCommand> for Message {
 pub(crate) mod strategies {
     use super::*;
     use firmware_core::feature::Feature;
+    use firmware_core::feedback::perturbation::Milli;
     use firmware_core::observation::{MAX_OBJECTS, PathReference, SemanticClass, SemanticObject};
     use firmware_core::{
-        ActionFeedback, LearnerKind, LearnerParams, LearnerState, Polarity, PreferenceFeedback,
-        SemanticFeedback,
+        ActionFeedback, CorrectnessFeedback, EStopFeedback, LearnerKind, LearnerParams,
+        LearnerState, MAX_RANKED, PerturbationFeedback, Polarity, PreferenceFeedback,
+        RankingFeedback, RewardFeedback, SemanticFeedback, SpanFeedback,
     };
     use proptest::prelude::*;
 
@@ -880,6 +934,25 @@ pub(crate) mod strategies {
                 }
                 Feedback::Semantic(s)
             }),
+            // Any bytes: the car checks the ranges when it learns, not when it decodes.
+            proptest::array::uniform6(any::<i16>()).prop_map(|t| Feedback::Perturbation(
+                PerturbationFeedback {
+                    corrected: t.map(Milli::new)
+                }
+            )),
+            any::<i8>().prop_map(|hundredths| Feedback::Reward(RewardFeedback { hundredths })),
+            any::<bool>()
+                .prop_map(|correct| Feedback::Correctness(CorrectnessFeedback { correct })),
+            (any::<u8>(), any::<bool>())
+                .prop_map(|(ticks, good)| Feedback::Span(SpanFeedback { ticks, good })),
+            (
+                proptest::collection::vec(action(), 0..=MAX_RANKED),
+                any::<bool>()
+            )
+                .prop_map(|(actions, ordered)| Feedback::Ranking(
+                    RankingFeedback::new(&actions, ordered).unwrap()
+                )),
+            Just(Feedback::EStop(EStopFeedback)),
         ]
     }
 
@@ -917,6 +990,7 @@ pub(crate) mod strategies {
             Just(StopReason::Watchdog),
             Just(StopReason::Reset),
             Just(StopReason::Reconfigured),
+            Just(StopReason::EStop),
         ]
     }
 
@@ -1037,8 +1111,9 @@ mod tests {
     use firmware_core::feature::Feature;
     use firmware_core::observation::{PathReference, SemanticClass, SemanticObject};
     use firmware_core::{
-        ActionFeedback, LearnerKind, LearnerParams, LearnerState, PreferenceFeedback,
-        SemanticFeedback,
+        ActionFeedback, CorrectnessFeedback, EStopFeedback, LearnerKind, LearnerParams,
+        LearnerState, PerturbationFeedback, PreferenceFeedback, RankingFeedback, RewardFeedback,
+        SemanticFeedback, SpanFeedback,
     };
     use proptest::prelude::*;
 
@@ -1072,7 +1147,7 @@ mod tests {
         assert_eq!(Message::parse(bytes), Ok(value));
     }
 
-    const PROTOCOL_VERSION_BYTE: u8 = 3;
+    const PROTOCOL_VERSION_BYTE: u8 = 4;
 
     #[test]
     fn the_version_byte_is_the_protocol_version() {
@@ -1160,6 +1235,7 @@ mod tests {
             StopReason::Watchdog,
             StopReason::Reset,
             StopReason::Reconfigured,
+            StopReason::EStop,
         ];
         for (i, r) in reasons.into_iter().enumerate() {
             test_one(
@@ -1235,6 +1311,47 @@ mod tests {
             fb(Feedback::Semantic(said)),
             &[2, 7, 200, 1, 2, 0, 1, 0, 0, 0, 1, 1, 0],
         );
+        // Perturbation: six fixed-width i16 thousandths, little-endian.
+        let corrected = [10.0, 0.5, 2.0, 10.0, 0.25, -1.5];
+        #[rustfmt::skip]
+        test_one(
+            fb(Feedback::Perturbation(PerturbationFeedback::new(&corrected).unwrap())),
+            &[2, 7, 200, 1, 3,
+              0x10, 0x27, 0xF4, 0x01, 0xD0, 0x07, 0x10, 0x27, 0xFA, 0x00, 0x24, 0xFA],
+        );
+        // Reward: one i8 of hundredths (-35 is 0xDD).
+        test_one(
+            fb(Feedback::Reward(RewardFeedback::new(-0.35).unwrap())),
+            &[2, 7, 200, 1, 4, 0xDD],
+        );
+        // Correct / incorrect: one bool.
+        test_one(
+            fb(Feedback::Correctness(CorrectnessFeedback {
+                correct: false,
+            })),
+            &[2, 7, 200, 1, 5, 0],
+        );
+        test_one(
+            fb(Feedback::Correctness(CorrectnessFeedback { correct: true })),
+            &[2, 7, 200, 1, 5, 1],
+        );
+        // Span: ticks, good.
+        test_one(
+            fb(Feedback::Span(SpanFeedback {
+                ticks: 4,
+                good: false,
+            })),
+            &[2, 7, 200, 1, 6, 4, 0],
+        );
+        // Ranking: the number of actions, the actions best first, ordered.
+        test_one(
+            fb(Feedback::Ranking(
+                RankingFeedback::new(&[a(9), a(0), a(63)], true).unwrap(),
+            )),
+            &[2, 7, 200, 1, 7, 3, 9, 0, 63, 1],
+        );
+        // E-stop: the variant alone.
+        test_one(fb(Feedback::EStop(EStopFeedback)), &[2, 7, 200, 1, 8]);
     }
 
     #[test]
@@ -1478,6 +1595,64 @@ mod tests {
     }
 
     #[test]
+    fn every_feedback_kind_has_its_size_and_the_largest_is_the_message_s() {
+        let sizes: std::vec::Vec<usize> = FeedbackKind::ALL
+            .iter()
+            .map(|&k| FeedbackMessage::max_encoded_size_of(k))
+            .collect();
+        // action, preference, semantic, perturbation, reward, correctness, span, ranking, E-stop.
+        assert_eq!(sizes, [16, 17, 27, 27, 16, 16, 17, 25, 15]);
+        assert_eq!(
+            sizes.iter().max(),
+            Some(&MessageKind::Feedback.max_encoded_size())
+        );
+        // Each reached by its largest value.
+        let largest = [
+            Feedback::Action(ActionFeedback { action: a(63) }),
+            Feedback::Preference(PreferenceFeedback {
+                preferred: a(1),
+                other: a(2),
+            }),
+            Feedback::Semantic(
+                SemanticFeedback::new()
+                    .avoid(Feature::Obstacles)
+                    .avoid(Feature::Door)
+                    .avoid(Feature::Stairs)
+                    .avoid(Feature::Chair)
+                    .prefer(Feature::Path)
+                    .prefer(Feature::Right),
+            ),
+            Feedback::Perturbation(
+                PerturbationFeedback::new(&[5.0, 5.0, 5.0, 5.0, 3.0, -5.0]).unwrap(),
+            ),
+            Feedback::Reward(RewardFeedback { hundredths: -100 }),
+            Feedback::Correctness(CorrectnessFeedback { correct: true }),
+            Feedback::Span(SpanFeedback {
+                ticks: 50,
+                good: true,
+            }),
+            Feedback::Ranking(
+                RankingFeedback::new(&[0, 1, 2, 3, 4, 5, 6, 7].map(a), true).unwrap(),
+            ),
+            Feedback::EStop(EStopFeedback),
+        ];
+        let mut buf = [0u8; MAX_MESSAGE_SIZE];
+        for (fb, size) in largest.into_iter().zip(sizes) {
+            let kind = fb.kind();
+            let m = Message::Feedback(FeedbackMessage {
+                id: ID,
+                tick: u32::MAX,
+                feedback: fb,
+            });
+            assert_eq!(
+                m.emit(&mut buf).unwrap().len() - ENVELOPE_OVERHEAD + SECURED_OVERHEAD,
+                size,
+                "{kind}"
+            );
+        }
+    }
+
+    #[test]
     fn every_lattice_action_makes_a_valid_command() {
         for action in ActionIndex::all() {
             let track = Track::of(action);
@@ -1541,25 +1716,42 @@ mod tests {
             v.extend_from_slice(&crc);
             v
         };
+        const V: u8 = PROTOCOL_VERSION_BYTE;
         let e = Message::parse(&reseal(&[2, 8])).unwrap_err();
         assert_eq!(e, DecodeError::Envelope(EnvelopeError::Version(2)));
+        // Version 3 (before the kinds of issue 15) is refused too.
+        assert_eq!(
+            Message::parse(&reseal(&[3, 8])),
+            Err(DecodeError::Envelope(EnvelopeError::Version(3)))
+        );
         assert_eq!(e.code(), ErrorCode::Version);
         assert_eq!(
-            Message::parse(&reseal(&[3, 8, 0])),
+            Message::parse(&reseal(&[V, 8, 0])),
             Err(DecodeError::Envelope(EnvelopeError::TrailingBytes))
         );
         assert_eq!(
-            Message::parse(&reseal(&[3, 13])),
+            Message::parse(&reseal(&[V, 13])),
             Err(DecodeError::Envelope(EnvelopeError::Decode))
         );
         // An action index of 64 is not an action.
         assert_eq!(
-            Message::parse(&reseal(&[3, 2, 7, 200, 1, 0, 64])),
+            Message::parse(&reseal(&[V, 2, 7, 200, 1, 0, 64])),
             Err(DecodeError::Envelope(EnvelopeError::Decode))
         );
         assert_eq!(
-            Message::parse(&reseal(&[3, 2, 7, 200, 1, 0, 63])).map(|m| m.kind()),
+            Message::parse(&reseal(&[V, 2, 7, 200, 1, 0, 63])).map(|m| m.kind()),
             Ok(MessageKind::Feedback)
+        );
+        // A feedback variant beyond the E-stop, a ranking of nine actions.
+        assert_eq!(
+            Message::parse(&reseal(&[V, 2, 7, 200, 1, 9])),
+            Err(DecodeError::Envelope(EnvelopeError::Decode))
+        );
+        assert_eq!(
+            Message::parse(&reseal(&[
+                V, 2, 7, 200, 1, 7, 9, 0, 1, 2, 3, 4, 5, 6, 7, 8, 1
+            ])),
+            Err(DecodeError::Envelope(EnvelopeError::Decode))
         );
     }
 

@@ -940,12 +940,12 @@ mod tests {
         };
         let mut buf = [0u8; 16];
         let pdu = seal_pdu(&Message::Heartbeat, s, &auth, fv, &mut buf).unwrap();
-        let mut input = std::vec![0x01, 0x03, 3, 5];
+        let mut input = std::vec![0x01, 0x03, 4, 5];
         input.extend_from_slice(&[1, 2, 3, 4, 0, 0, 1, 5]);
         let mut c = <Cmac<Aes128Enc> as KeyInit>::new(&KEY.0.into());
         c.update(&input);
         let full = c.finalize().into_bytes();
-        assert_eq!(pdu, &[3, 5, 0x05, full[0], full[1], full[2], full[3]]);
+        assert_eq!(pdu, &[4, 5, 0x05, full[0], full[1], full[2], full[3]]);
         let v = SecuredPdu::new_checked(pdu).unwrap();
         assert_eq!((v.payload(), v.freshness_byte()), (&[5u8][..], 5));
         assert!(auth.verify(s, v.body(), fv, v.tag()));

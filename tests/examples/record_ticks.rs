@@ -5,7 +5,8 @@
 //! cargo run -p tests --example record_ticks -- OUT [STEPS]
 //! ```
 //!
-//! Runs the `doors` scenario, seed 0, once per feedback kind (action, preference, semantic),
+//! Runs the `doors` scenario, seed 0, once per kind of feedback, in `FeedbackKind` order
+//! (action, preference, semantic, perturbation, reward, correctness, span, ranking, E-stop),
 //! `STEPS` ticks each (default 40), with the firmware agent in this process, and writes every call
 //! the experiment made to the agent, in order, to `OUT`. Each item is a little-endian `u16`
 //! length followed by one sealed [`Message`] (versioned postcard envelope with its CRC):
@@ -102,11 +103,7 @@ fn main() -> Result<()> {
         seq: 0,
     };
     let (mut ticks, mut feedbacks) = (0, 0);
-    for kind in [
-        FeedbackKind::Action,
-        FeedbackKind::Preference,
-        FeedbackKind::Semantic,
-    ] {
+    for kind in FeedbackKind::ALL {
         let config = RunConfig {
             mode: Mode::Online(kind),
             steps,
@@ -120,7 +117,7 @@ fn main() -> Result<()> {
     }
     std::fs::write(&out, &rec.out).with_context(|| format!("{out}: cannot write"))?;
     println!(
-        "{out}: {ticks} observations and {feedbacks} feedbacks of doors runs (action, preference, semantic; seed 0), {} bytes",
+        "{out}: {ticks} observations and {feedbacks} feedbacks of doors runs (one per kind of feedback, in FeedbackKind order; seed 0), {} bytes",
         rec.out.len()
     );
     Ok(())

@@ -11,7 +11,9 @@ use firmware_core::observation::{
     Observation, PathReference, SCAN_MAX_RANGE, SemanticClass, SemanticObject,
 };
 use firmware_core::{
-    ActionFeedback, ActionIndex, Feature, Feedback, PreferenceFeedback, SemanticFeedback,
+    ActionFeedback, ActionIndex, CorrectnessFeedback, EStopFeedback, Feature, Feedback,
+    PerturbationFeedback, PreferenceFeedback, RankingFeedback, RewardFeedback, SemanticFeedback,
+    SpanFeedback,
 };
 
 /// The three scenes.
@@ -73,31 +75,55 @@ pub fn act(agent: &mut Agent, n: u32, only: Option<usize>) -> u32 {
     sum
 }
 
-/// The feedback of iteration `i`: action, preference and semantic in turn.
+/// Kinds of feedback [`feedback`] cycles through: every kind of `firmware_core::FeedbackKind`.
+pub const KINDS: u32 = 9;
+
+/// The feedback of iteration `i`: action, preference, semantic, perturbation, reward,
+/// correctness, span (the last two ticks), ranking (four actions) and E-stop in turn.
 pub fn feedback(i: u32) -> Feedback {
     let a = |k: u32| ActionIndex::new((k % 49) as usize).unwrap_or(ActionIndex::FIRST);
-    match i % 3 {
+    match i % KINDS {
         0 => ActionFeedback { action: a(7 + i) }.into(),
         1 => PreferenceFeedback {
             preferred: a(3 + i),
             other: a(20 + i),
         }
         .into(),
-        _ => SemanticFeedback::new()
+        2 => SemanticFeedback::new()
             .avoid(Feature::Door)
             .prefer(Feature::Path)
             .into(),
+        3 => match PerturbationFeedback::new(&[9.0, 6.5, 10.0, 10.0, 0.4, -1.5]) {
+            Some(p) => p.into(),
+            None => EStopFeedback.into(),
+        },
+        4 => match RewardFeedback::new(-0.5) {
+            Some(r) => r.into(),
+            None => EStopFeedback.into(),
+        },
+        5 => CorrectnessFeedback { correct: false }.into(),
+        6 => SpanFeedback {
+            ticks: 2,
+            good: false,
+        }
+        .into(),
+        7 => match RankingFeedback::new(&[a(5 + i), a(11 + i), a(2 + i), a(30 + i)], true) {
+            Some(r) => r.into(),
+            None => EStopFeedback.into(),
+        },
+        _ => EStopFeedback.into(),
     }
 }
 
-/// One tick on the corridor scene, then `n` feedback-to-update steps about it; returns the number
-/// of accepted updates.
+/// Two ticks on the corridor scene, then `n` feedback-to-update steps about the second (a span
+/// covers both); returns the number of accepted updates.
 pub fn learn(agent: &mut Agent, n: u32) -> u32 {
     let scenes = scenes();
     let _ = agent.act(0, &scenes[1]);
+    let _ = agent.act(1, &scenes[1]);
     let mut ok = 0;
     for i in 0..n {
-        if agent.feedback(0, &feedback(i)).is_ok() {
+        if agent.feedback(1, &feedback(i)).is_ok() {
             ok += 1;
         }
     }

@@ -187,7 +187,7 @@ pub fn run<'a>(
                 worst = worst.max(stack::high_water());
             }
             let mut learn = 0;
-            for i in 0..3 {
+            for i in 0..bench::KINDS {
                 let fb = bench::feedback(i);
                 let at = stack::paint();
                 let _ = agent.feedback(2, &fb);
@@ -217,7 +217,7 @@ pub fn run<'a>(
                     true,
                 ));
             }
-            for i in 0..3u8 {
+            for i in 0..bench::KINDS as u8 {
                 let fb = bench::feedback(i as u32);
                 take(to_node(
                     &mut host,

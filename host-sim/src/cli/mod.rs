@@ -81,7 +81,8 @@ impl ValueEnum for Learner {
 #[derive(clap::Args, Debug)]
 pub(crate) struct LearnerArgs {
     /// Online learner. Default: for `run`, the one docs/learners.md chose for the kind of
-    /// feedback (`host-sim learners`); for `demo`, averaged-ogd.
+    /// feedback (`host-sim learners`: action, preference and semantic; averaged-ogd for the
+    /// other kinds, mixes and cheapest); for `demo`, averaged-ogd.
     #[arg(long)]
     learner: Option<Learner>,
     /// Step size, in (0, 1000] (default: the learner's own: 0.01 for the OGD family, 0.1

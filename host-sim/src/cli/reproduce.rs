@@ -70,7 +70,7 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     let out_dir = prepare_out(&args.out)?;
     let pool = worker_pool(args.grid.jobs)?;
-    let jobs = report::jobs(&o, shard).len();
+    let jobs = report::jobs(&o, shard).len() + report::kinds::jobs(&o, shard).len();
     let bar = progress_bar(
         jobs as u64,
         "{spinner} [{elapsed_precise}] {bar:30} {pos}/{len} trials, {eta} left {msg}",
@@ -78,6 +78,7 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
     bar.set_message(format!("({} threads)", pool.current_num_threads()));
     let started = Instant::now();
     let results = pool.install(|| report::run_shard(&o, shard, &|| bar.inc(1)))?;
+    let kinds = pool.install(|| report::kinds::run_shard(&o, shard, &|| bar.inc(1)))?;
     bar.finish_and_clear();
     let ran = started.elapsed().as_secs_f64();
     outln!(
@@ -86,7 +87,7 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
         pool.current_num_threads()
     )?;
     if shard.count > 1 {
-        report::write_shard(&args.out, &o, shard, &results)?;
+        report::write_shard(&args.out, &o, shard, &results, &kinds)?;
         out_dir.keep();
         outln!(
             "wrote shard {}/{} into {}; combine every shard with `host-sim merge DIR... --out DIR`",
@@ -96,7 +97,7 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
         )?;
         return Ok(());
     }
-    let report = report::finalize(&args.out, &o, &results)?;
+    let report = report::finalize(&args.out, &o, &results, &kinds)?;
     out_dir.keep();
     print_outcome(&args.out, &report)?;
     outln!(
@@ -163,9 +164,9 @@ pub(crate) fn print_outcome(out: &Path, report: &str) -> Result<()> {
 
 pub(crate) fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let started = Instant::now();
-    let (o, results) = host_sim::report::read_shards(dirs)?;
+    let (o, results, kinds) = host_sim::report::read_shards(dirs)?;
     let out_dir = prepare_out(out)?;
-    let report = host_sim::report::finalize(out, &o, &results)?;
+    let report = host_sim::report::finalize(out, &o, &results, &kinds)?;
     out_dir.keep();
     outln!(
         "merged {} shard folders ({}) in {:.1} s",

@@ -15,7 +15,7 @@ use crate::teach::record::{RESET_CAUSES, RunReport};
 use crate::world::registry;
 use crate::world::scenario::Scenario;
 use crate::world::sim::ResetReason;
-use crate::world::teacher::FeedbackKind;
+use crate::world::teacher::{FeedbackKind, PAPER_KINDS};
 
 /// The households of the variety experiment (the paper's three).
 pub const HOUSEHOLDS: [&str; 3] = ["doors", "stairs-right", "stairs-chairs"];
@@ -40,7 +40,7 @@ pub const MAX_TRIALS: u32 = 10_000;
 pub const TRIALS: std::ops::RangeInclusive<u32> = 1..=MAX_TRIALS;
 /// The steps per trial a grid accepts (`--steps`): at least ten, so that a tenth is a step.
 pub const GRID_STEPS: std::ops::RangeInclusive<u32> = 10..=MAX_STEPS;
-/// Version of the shard files (3: the worlds' trials in `worlds.csv`).
+/// Version of the shard files (3: the worlds' trials in `worlds.csv` and the kinds experiment's runs).
 pub const SHARD_FORMAT: u32 = 3;
 /// Generated worlds per teacher by default (`--worlds`): with the paper's grid, what a full
 /// reproduction runs in about a minute on two cores. Measured (README, "Reproducing the
@@ -135,7 +135,7 @@ impl Setting {
 pub fn settings() -> Vec<Setting> {
     let mut out = Vec::new();
     for household in HOUSEHOLDS {
-        let mut modes: Vec<Mode> = FeedbackKind::ALL.into_iter().map(Mode::Online).collect();
+        let mut modes: Vec<Mode> = PAPER_KINDS.into_iter().map(Mode::Online).collect();
         modes.push(Mode::BehaviourCloning);
         for mode in modes {
             out.push(Setting {

@@ -73,6 +73,9 @@
 //!   with intervals (`--worlds K`).
 //! * [`sweep`]: the claims at other scales of the teachers.
 //! * [`registry`]: the paper's experiments by name (`host-sim list`).
+//! * [`kinds`]: beyond the paper, every kind of feedback and mixed streams in every world
+//!   (issue 15): its own small grid, sharded and merged with the paper's, and its section of the
+//!   report.
 //! * [`run_figure`]: the figure of one `host-sim run`; [`run_folder`]: a run's folder read back;
 //!   [`animation`]: a run as an animated picture (`host-sim draw --run DIR --animate FILE`).
 
@@ -82,6 +85,7 @@ pub mod claims;
 pub mod figure;
 pub mod files;
 pub mod grid;
+pub mod kinds;
 pub mod outputs;
 pub mod panels;
 pub mod paths;

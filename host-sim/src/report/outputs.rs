@@ -174,9 +174,16 @@ fn teacher_laps(
     Ok(laps)
 }
 
-/// Writes every output of a finished grid into `out`; returns the report's text.
-pub fn finalize(out: &Path, o: &Options, results: &Results) -> Result<String> {
+/// Writes every output of a finished grid and of the kinds experiment into `out`; returns the
+/// report's text.
+pub fn finalize(
+    out: &Path,
+    o: &Options,
+    results: &Results,
+    kinds: &[super::kinds::KindTrial],
+) -> Result<String> {
     let aggs = aggregate_all(o, &results.grid)?;
+    let kind_aggs = super::kinds::aggregate_all(o, kinds)?;
     let households = load_households()?;
     let figs = out.join("figures");
     std::fs::create_dir_all(&figs).with_context(|| format!("{}: cannot create", figs.display()))?;
@@ -453,13 +460,14 @@ pub fn finalize(out: &Path, o: &Options, results: &Results) -> Result<String> {
         paths_csv,
     )?;
 
+    let kinds_section = super::kinds::write_outputs(out, o, &kind_aggs)?;
     let calibration = crate::teach::calibrate::run()?;
     let across = if o.worlds > 0 {
         Some(worlds::section::write(out, &figs, o, &results.worlds)?)
     } else {
         None
     };
-    let report = report(
+    let mut report = report(
         o,
         &aggs,
         &calibration,
@@ -468,6 +476,9 @@ pub fn finalize(out: &Path, o: &Options, results: &Results) -> Result<String> {
         &path_rows,
         cm,
     );
+    // The kinds experiment's section goes before the list of files.
+    let at = report.find("\n## Files").unwrap_or(report.len());
+    report.insert_str(at, &format!("\n{kinds_section}"));
     write_file(&out.join("REPORT.md"), report.as_bytes())?;
     Ok(report)
 }

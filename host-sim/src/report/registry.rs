@@ -9,7 +9,7 @@ use anyhow::Result;
 
 use crate::teach::experiment::{Mode, RunConfig};
 use crate::world::registry::load_scenario;
-use crate::world::teacher::FeedbackKind;
+use crate::world::teacher::PAPER_KINDS;
 
 /// Options an experiment expands into runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -55,7 +55,7 @@ fn variety(o: &ExperimentOptions) -> Result<Vec<RunConfig>> {
     let mut out = Vec::new();
     for name in ["doors", "stairs-right", "stairs-chairs"] {
         let s = Arc::new(load_scenario(name)?);
-        let mut modes: Vec<Mode> = FeedbackKind::ALL.into_iter().map(Mode::Online).collect();
+        let mut modes: Vec<Mode> = PAPER_KINDS.into_iter().map(Mode::Online).collect();
         modes.push(Mode::BehaviourCloning);
         for mode in modes {
             let base = RunConfig {

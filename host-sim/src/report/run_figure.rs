@@ -76,6 +76,8 @@ pub fn write_run_figure(stem: &Path, report: &RunReport) -> Result<()> {
     ];
     let taught = match report.mode {
         Mode::Online(kind) => format!("{} feedback", kind.name()),
+        Mode::Mix(mix) => format!("feedback {mix}"),
+        Mode::Cheapest => "the cheapest informative feedback".into(),
         Mode::BehaviourCloning => "behaviour cloning".into(),
         Mode::Teacher => "the teacher's own policy".into(),
     };

@@ -220,7 +220,7 @@ pub(crate) fn report(
         aggs,
         Group::Variety,
         &["household", "feedback"],
-        |a| vec![a.setting.household.into(), a.setting.mode.name().into()],
+        |a| vec![a.setting.household.into(), a.setting.mode.name()],
     );
     let _ = writeln!(
         r,

@@ -16,8 +16,16 @@ use super::paths::PathTrace;
 use super::worlds::{WorldTrial, world_setting_key, world_settings, worlds};
 use crate::world::sim::ResetReason;
 
-/// Writes a shard's raw results and its manifest into `dir`.
-pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &Results) -> Result<()> {
+/// Writes a shard's raw results (the paper's grid, the worlds and the kinds experiment) and its
+/// manifest into `dir`.
+pub fn write_shard(
+    dir: &Path,
+    o: &Options,
+    shard: Shard,
+    results: &Results,
+    kinds: &[super::kinds::KindTrial],
+) -> Result<()> {
+    super::kinds::write_shard(dir, kinds)?;
     let all = settings();
     for r in &results.grid {
         let dir = dir.join("trials").join(all[r.setting].key());
@@ -63,6 +71,8 @@ pub fn write_shard(dir: &Path, o: &Options, shard: Shard, results: &Results) -> 
         world_settings: world_settings().iter().map(world_setting_key).collect(),
         world_trials: o.world_trials,
         worlds: o.worlds,
+        kind_jobs: kinds.len(),
+        kind_settings: super::kinds::settings().iter().map(|s| s.key()).collect(),
     };
     write_file(
         &dir.join("manifest.json"),
@@ -99,6 +109,10 @@ struct Manifest {
     world_trials: u32,
     /// Generated worlds per teacher.
     worlds: u32,
+    /// Jobs of the kinds experiment in the shard.
+    kind_jobs: usize,
+    /// Every setting's key of the kinds experiment, in order.
+    kind_settings: Vec<String>,
 }
 
 /// Just the format of a manifest, read first so that another format is named as such.
@@ -121,8 +135,9 @@ fn read_manifest(dir: &Path) -> Result<(Options, Shard)> {
         .with_context(|| format!("{}: not a shard's manifest", path.display()))?;
     let keys: Vec<String> = settings().iter().map(Setting::key).collect();
     let world_keys: Vec<String> = world_settings().iter().map(world_setting_key).collect();
+    let kind_keys: Vec<String> = super::kinds::settings().iter().map(|s| s.key()).collect();
     ensure!(
-        m.settings == keys && m.world_settings == world_keys,
+        m.settings == keys && m.world_settings == world_keys && m.kind_settings == kind_keys,
         "{}: written by a build with other settings",
         path.display()
     );
@@ -397,8 +412,12 @@ fn read_worlds(
         .collect()
 }
 
+/// The raw results of a grid: options, the paper's grid and the worlds, the kinds experiment's
+/// trials.
+pub type Shards = (Options, Results, Vec<super::kinds::KindTrial>);
+
 /// Reads shard folders; checks that they are one grid, each shard exactly once.
-pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Results)> {
+pub fn read_shards(dirs: &[PathBuf]) -> Result<Shards> {
     ensure!(!dirs.is_empty(), "merge needs at least one shard folder");
     let mut grid: Option<(Options, u32)> = None;
     let mut seen = BTreeMap::new();
@@ -451,7 +470,16 @@ pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Results)> {
     );
     let all = settings();
     let mut results = Results::default();
+    let mut kinds = Vec::new();
     for (index, dir) in &seen {
+        kinds.extend(super::kinds::read_shard(
+            dir,
+            &o,
+            Shard {
+                index: *index,
+                count: n,
+            },
+        )?);
         let mut world_jobs = Vec::new();
         for job in jobs(
             &o,
@@ -481,5 +509,6 @@ pub fn read_shards(dirs: &[PathBuf]) -> Result<(Options, Results)> {
     results
         .worlds
         .sort_by_key(|r| (r.world, r.setting, r.trial));
-    Ok((o, results))
+    kinds.sort_by_key(|r| (r.setting, r.trial));
+    Ok((o, results, kinds))
 }

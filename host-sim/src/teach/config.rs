@@ -7,6 +7,7 @@ use anyhow::{Result, ensure};
 use firmware_core::{LearnerParams, LearnerSnapshot};
 use nalgebra::Point2;
 
+use super::kinds::{Mix, Teaching};
 use crate::world::car::Pose;
 use crate::world::scenario::Scenario;
 use crate::world::teacher::{FeedbackKind, StatementSet, TeacherSpec};
@@ -16,6 +17,11 @@ use crate::world::teacher::{FeedbackKind, StatementSet, TeacherSpec};
 pub enum Mode {
     /// Online, from this kind of feedback.
     Online(FeedbackKind),
+    /// Online, each correction of a kind drawn from the mix ([`Mix`]).
+    Mix(Mix),
+    /// Online, each correction of the kind cheapest for a person while still informative
+    /// ([`super::kinds`]).
+    Cheapest,
     /// Behaviour cloning on [`BC_SAMPLES`](super::bc::BC_SAMPLES) action samples, then frozen.
     BehaviourCloning,
     /// The teacher's own policy, frozen.
@@ -23,38 +29,49 @@ pub enum Mode {
 }
 
 impl Mode {
-    /// Every mode, in the order of the command line's list.
-    pub const ALL: [Mode; 5] = [
-        Mode::Online(FeedbackKind::Action),
-        Mode::Online(FeedbackKind::Preference),
-        Mode::Online(FeedbackKind::Semantic),
-        Mode::BehaviourCloning,
-        Mode::Teacher,
-    ];
-
-    /// The name used on the command line: action, preference, semantic, bc, teacher.
-    pub const fn name(self) -> &'static str {
+    /// The name used on the command line: a kind (action, preference, semantic, perturbation,
+    /// reward, correctness, span, ranking, estop), `mix:…`, cheapest, bc, teacher.
+    pub fn name(self) -> String {
         match self {
-            Mode::Online(k) => k.name(),
-            Mode::BehaviourCloning => "bc",
-            Mode::Teacher => "teacher",
+            Mode::Online(k) => k.name().to_string(),
+            Mode::Mix(m) => m.to_string(),
+            Mode::Cheapest => "cheapest".to_string(),
+            Mode::BehaviourCloning => "bc".to_string(),
+            Mode::Teacher => "teacher".to_string(),
         }
     }
 
-    /// The mode called `name`.
+    /// The mode called `name`; the error says what is wrong (a bad mix names its bad part).
+    pub fn parse(name: &str) -> Result<Self, String> {
+        if let Some(spec) = name.strip_prefix("mix:") {
+            return Mix::parse(spec).map(Mode::Mix);
+        }
+        match name {
+            "bc" => Ok(Mode::BehaviourCloning),
+            "teacher" => Ok(Mode::Teacher),
+            "cheapest" => Ok(Mode::Cheapest),
+            _ => FeedbackKind::from_name(name).map(Mode::Online).ok_or_else(|| {
+                format!(
+                    "unknown feedback '{name}', expected one of {}, mix:KIND=WEIGHT,..., mix:all, cheapest, bc, teacher",
+                    super::kinds::kind_names()
+                )
+            }),
+        }
+    }
+
+    /// The mode called `name`, if any (see [`Mode::parse`]).
     pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|m| m.name() == name)
-    }
-}
-
-/// `--feedback NAME` on the command line.
-impl clap::ValueEnum for Mode {
-    fn value_variants<'a>() -> &'a [Self] {
-        &Self::ALL
+        Self::parse(name).ok()
     }
 
-    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
-        Some(clap::builder::PossibleValue::new(self.name()))
+    /// How an online mode teaches; `None` for behaviour cloning and the teacher's drive.
+    pub fn teaching(self) -> Option<Teaching> {
+        match self {
+            Mode::Online(k) => Some(Teaching::Kind(k)),
+            Mode::Mix(m) => Some(Teaching::Mix(m)),
+            Mode::Cheapest => Some(Teaching::Cheapest),
+            Mode::BehaviourCloning | Mode::Teacher => None,
+        }
     }
 }
 
@@ -222,8 +239,8 @@ impl RunConfig {
             .map_err(|e| anyhow::anyhow!("learner parameters: {e}"))?;
         if let Some(s) = &self.initial {
             ensure!(
-                matches!(self.mode, Mode::Online(_)),
-                "a loaded learner is taught online (action, preference or semantic feedback), not {}",
+                self.mode.teaching().is_some(),
+                "a loaded learner is taught online (a kind of feedback, a mix or cheapest), not {}",
                 self.mode.name()
             );
             ensure!(
@@ -243,16 +260,23 @@ mod tests {
 
     #[test]
     fn modes_round_trip_their_names() {
-        for m in [
-            Mode::Online(FeedbackKind::Action),
-            Mode::Online(FeedbackKind::Preference),
-            Mode::Online(FeedbackKind::Semantic),
+        let mut modes: Vec<Mode> = FeedbackKind::ALL.into_iter().map(Mode::Online).collect();
+        modes.extend([
+            Mode::Mix(Mix::ALL),
+            Mode::Mix(Mix::parse("action=0.2,preference=0.3,semantic=0.5").unwrap()),
+            Mode::Cheapest,
             Mode::BehaviourCloning,
             Mode::Teacher,
-        ] {
-            assert_eq!(Mode::from_name(m.name()), Some(m));
+        ]);
+        for m in modes {
+            assert_eq!(Mode::from_name(&m.name()), Some(m));
         }
         assert_eq!(Mode::from_name("shouting"), None);
+        let e = Mode::parse("mix:action=0.2,prefrence=0.8").unwrap_err();
+        assert!(
+            e.contains("'prefrence=0.8': unknown kind 'prefrence'"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -56,6 +56,7 @@ use rayon::prelude::*;
 
 use super::bc::behaviour_cloning;
 pub use super::config::{MAX_STEPS, Mode, RunConfig, StartJitter};
+use super::kinds::{Given, Tutor};
 use super::record::{RunReport, StepRecord};
 use crate::world::sim::{Episode, ResetReason};
 use crate::world::teacher::Teacher;
@@ -166,7 +167,7 @@ pub fn run_with(
     config.check()?;
     let spec = config.teacher();
     let (initial, bc) = match config.mode {
-        Mode::Online(_) => match config.initial {
+        Mode::Online(_) | Mode::Mix(_) | Mode::Cheapest => match config.initial {
             Some(snapshot) => (snapshot, None),
             None => (learner_with(config.learner, config.learner.initial)?, None),
         },
@@ -178,8 +179,10 @@ pub fn run_with(
     };
     link.restore(&initial)?;
     let mut teacher = Teacher::new(spec, config.seed);
+    let mut tutor = config.mode.teaching().map(Tutor::new);
     let mut episode = Episode::starting_at(config.scenario.clone(), config.start_pose());
     let mut records = Vec::with_capacity(config.steps as usize);
+    let mut informativeness = Vec::new();
     let mut corrections = 0u32;
     let mut resets = [0u32; 4];
     for step in 0..config.steps {
@@ -193,22 +196,25 @@ pub fn run_with(
         if decision.allowed != j.allowed() {
             bail!("step {step}: the learner's and the teacher's collision masks differ");
         }
-        let mut corrected = false;
-        let latent_loss = match decision.action {
-            Some(a) => {
-                if let Mode::Online(kind) = config.mode
-                    && teacher.corrects(&j, a)
-                    && let Some(fb) = teacher.feedback(kind, &j, a)
-                {
-                    link.feedback(step, &fb)?;
-                    corrected = true;
-                    corrections += 1;
-                }
-                j.latent_loss(a)
+        let given = match &mut tutor {
+            Some(t) => {
+                let (given, info) = t.tick(&mut teacher, step, &j, decision.action);
+                informativeness.extend(info);
+                given
             }
-            None => 0.0,
+            None => None,
         };
-        let result = episode.drive(decision.action);
+        if let Some(g) = &given {
+            link.feedback(g.tick, &g.feedback)?;
+            corrections += 1;
+        }
+        let latent_loss = decision.action.map_or(0.0, |a| j.latent_loss(a));
+        // An E-stop: the car stands this tick.
+        let result = if given.as_ref().is_some_and(Given::halts) {
+            episode.hold()
+        } else {
+            episode.drive(decision.action)
+        };
         match result.reset {
             Some(ResetReason::Collision) => resets[0] += 1,
             Some(ResetReason::Stuck) => resets[1] += 1,
@@ -221,7 +227,7 @@ pub fn run_with(
             action: decision.action,
             teacher_action: j.choice,
             latent_loss,
-            corrected,
+            corrected: given.is_some(),
             corrections,
             collision: result.reset == Some(ResetReason::Collision),
             reset: result.reset,
@@ -230,6 +236,8 @@ pub fn run_with(
             x: pose.x,
             y: pose.y,
             theta: pose.theta,
+            feedback: given.map(|g| g.feedback.kind()),
+            effort: given.map_or(0.0, |g| g.effort),
         };
         on_step(&record);
         records.push(record);
@@ -244,6 +252,7 @@ pub fn run_with(
         final_snapshot: link.snapshot()?,
         bc,
         resets,
+        informativeness,
     })
 }
 

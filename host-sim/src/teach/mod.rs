@@ -4,6 +4,8 @@
 //!   start jitter.
 //! * [`experiment`]: the run loop behind the [`experiment::CarLink`] trait, parallel runs.
 //! * [`bc`]: behaviour cloning, the paper's baseline.
+//! * [`kinds`]: every kind of feedback in one stream: seeded mixes, the cost-aware teacher,
+//!   spans over several ticks, the effort a person spends, how informative each correction was.
 //! * [`record`]: what a run records: per-step records, CSV, summary, task success.
 //! * [`learner_file`]: the learner file of `run --save-learner` and `--load-learner`: the
 //!   versioned snapshot the car persists.
@@ -21,6 +23,7 @@ pub mod bc;
 pub mod calibrate;
 pub mod config;
 pub mod experiment;
+pub mod kinds;
 pub mod learner_file;
 pub mod learners;
 pub mod person;

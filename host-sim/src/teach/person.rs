@@ -212,7 +212,9 @@ impl Teaching {
             Teaching::Statement { statement } => learn(Feedback::Semantic(
                 SemanticFeedback::new().with(statement.statement()),
             )),
-            // No intervention feedback in firmware-core yet: the car stops, the event is kept.
+            // The car stops and the event is kept. firmware-core has an E-stop feedback now
+            // (`EStopFeedback`, issue 15: "the executed action was unacceptable"); the console
+            // does not send it yet, so a person's E-stop teaches nothing.
             Teaching::Estop {} => Ok(Effect {
                 feedback: None,
                 stop: true,

@@ -7,8 +7,10 @@ use firmware_core::{ActionIndex, Feature, LearnerParams, LearnerSnapshot, Weight
 
 use super::bc::BcFit;
 use super::config::Mode;
+use super::kinds::Informativeness;
 use crate::world::sim::ResetReason;
 use crate::world::teacher::TeacherSpec;
+use firmware_core::FeedbackKind;
 
 /// One step of a run: one CSV row.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,6 +42,10 @@ pub struct StepRecord {
     pub y: f64,
     /// Pose where the action was chosen.
     pub theta: f64,
+    /// The kind of the feedback given this step, if any.
+    pub feedback: Option<FeedbackKind>,
+    /// A person's seconds for it ([`crate::teach::kinds::EFFORT_SECONDS`]; 0 without feedback).
+    pub effort: f32,
 }
 
 /// Everything a run produced.
@@ -63,12 +69,47 @@ pub struct RunReport {
     pub bc: Option<BcFit>,
     /// Resets by reason: collision, stuck, lost, blocked.
     pub resets: [u32; 4],
+    /// How informative each correction was (every labelled tick the car held, for a span).
+    pub informativeness: Vec<Informativeness>,
 }
 
 impl RunReport {
     /// Corrections in all.
     pub fn corrections(&self) -> u32 {
         self.records.last().map_or(0, |r| r.corrections)
+    }
+
+    /// A person's seconds of feedback in all.
+    pub fn effort(&self) -> f64 {
+        self.records.iter().map(|r| r.effort as f64).sum()
+    }
+
+    /// Feedback messages of each kind, in [`FeedbackKind`] order.
+    pub fn kind_counts(&self) -> [u32; 9] {
+        let mut n = [0u32; 9];
+        for k in self.records.iter().filter_map(|r| r.feedback) {
+            n[k as usize] += 1;
+        }
+        n
+    }
+
+    /// The corrections of `kind` whose α could be measured (the judged action's latent loss
+    /// above 0), their mean α and mean worst-minimiser α
+    /// ([`crate::teach::kinds::Informativeness`]); `None` without any.
+    pub fn alpha(&self, kind: FeedbackKind) -> Option<(usize, f64, f64)> {
+        let pairs: Vec<(f64, f64)> = self
+            .informativeness
+            .iter()
+            .filter(|i| i.kind == kind)
+            .filter_map(|i| Some((i.alpha()?, i.alpha_worst()?)))
+            .collect();
+        let n = pairs.len();
+        (n > 0).then(|| {
+            let (a, w) = pairs
+                .iter()
+                .fold((0.0, 0.0), |(a, w), (x, y)| (a + x, w + y));
+            (n, a / n as f64, w / n as f64)
+        })
     }
 
     /// Laps in all.
@@ -130,6 +171,8 @@ impl RunReport {
             "x",
             "y",
             "theta",
+            "feedback",
+            "effort_s",
         ])?;
         let idx = |a: Option<ActionIndex>| a.map(|a| a.get().to_string()).unwrap_or_default();
         for r in &self.records {
@@ -147,6 +190,8 @@ impl RunReport {
                 r.x.to_string(),
                 r.y.to_string(),
                 r.theta.to_string(),
+                r.feedback.map_or("", FeedbackKind::name).to_string(),
+                r.effort.to_string(),
             ])?;
         }
         w.flush()
@@ -186,6 +231,13 @@ impl RunReport {
             "learner_steps": s.state.steps,
             "totals": {
                 "corrections": self.corrections(),
+                "effort_s": self.effort(),
+                "by_kind": FeedbackKind::ALL
+                    .iter()
+                    .zip(self.kind_counts())
+                    .filter(|(_, n)| *n > 0)
+                    .map(|(k, n)| (k.name().to_string(), serde_json::json!(n)))
+                    .collect::<serde_json::Map<_, _>>(),
                 "collisions": self.resets[0],
                 "stuck": self.resets[1],
                 "lost": self.resets[2],
@@ -199,6 +251,16 @@ impl RunReport {
                 "lost": self.resets[2],
                 "blocked": self.resets[3],
             },
+            "informativeness": FeedbackKind::ALL
+                .iter()
+                .filter_map(|&k| {
+                    let (n, alpha, worst) = self.alpha(k)?;
+                    Some((
+                        k.name().to_string(),
+                        serde_json::json!({"measured": n, "alpha_mean": alpha, "alpha_worst": worst}),
+                    ))
+                })
+                .collect::<serde_json::Map<_, _>>(),
             "mean_latent_loss_first_10pct": first,
             "mean_latent_loss_last_10pct": last,
             "corrections": self.corrections(),

@@ -188,6 +188,10 @@ pub struct Session {
     records: Vec<StepRecord>,
     corrections: u32,
     corrected_now: bool,
+    /// The kind of the last feedback that reached the learner during the current tick, and the
+    /// effort of all of it ([`super::kinds::effort`], the stated guesses `run` records too).
+    given_now: Option<FeedbackKind>,
+    effort_now: f32,
     resets: [u32; 4],
     entries: Vec<Entry>,
     snapshots: Vec<SnapshotEntry>,
@@ -225,6 +229,8 @@ impl Session {
             records: Vec::new(),
             corrections: 0,
             corrected_now: false,
+            given_now: None,
+            effort_now: 0.0,
             resets: [0; 4],
             entries: Vec::new(),
             snapshots: Vec::new(),
@@ -364,6 +370,8 @@ impl Session {
             self.link.feedback(tick, fb)?;
             self.corrections += 1;
             self.corrected_now = true;
+            self.given_now = Some(fb.kind());
+            self.effort_now += super::kinds::effort(fb.kind());
         }
         // Taken: recorded even if the snapshot below fails (the learner has it).
         self.entries.push(Entry {
@@ -420,6 +428,8 @@ impl Session {
             x: pose.x,
             y: pose.y,
             theta: pose.theta,
+            feedback: self.given_now.take(),
+            effort: std::mem::take(&mut self.effort_now),
         });
         self.corrected_now = false;
         self.decide(tick + 1)?;
@@ -439,6 +449,8 @@ impl Session {
             final_snapshot: self.snapshot,
             bc: None,
             resets: self.resets,
+            // A person's feedback is not measured against the programmatic teacher's losses.
+            informativeness: Vec::new(),
         }
     }
 

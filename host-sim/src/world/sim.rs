@@ -222,6 +222,25 @@ impl Episode {
         observe(&self.scenario, &self.car, self.s)
     }
 
+    /// One control tick standing still (the teacher stopped the car: an E-stop): the car's speed
+    /// drops to 0 and it stays where it is. A car held long enough is stuck and reset, like one
+    /// that makes no progress.
+    pub fn hold(&mut self) -> TickResult {
+        self.car.speed = 0.0;
+        self.since_progress += 1;
+        if self.since_progress >= STUCK_TICKS {
+            self.reset();
+            return TickResult {
+                reset: Some(ResetReason::Stuck),
+                lap: false,
+            };
+        }
+        TickResult {
+            reset: None,
+            lap: false,
+        }
+    }
+
     /// Drives one control tick along `action`'s trajectory; `None` (nothing allowed) stops the
     /// car and puts it back at the start.
     pub fn drive(&mut self, action: Option<ActionIndex>) -> TickResult {

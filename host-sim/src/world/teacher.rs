@@ -110,6 +110,10 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 
+mod kinds;
+
+pub use kinds::{RANKED_SHOWN, REWARD_FULL_SCALE};
+
 /// A named teacher preset: what it trades for what (its ratios) and how large its latent losses
 /// are (its scale).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -305,34 +309,16 @@ impl TeacherSpec {
     }
 }
 
-/// Which kind of feedback a teacher gives.
-#[derive(Clone, Copy, PartialEq, Eq, Hash, Debug)]
-pub enum FeedbackKind {
-    /// The action it wanted.
-    Action,
-    /// A choice between the learner's action and a random other one.
-    Preference,
-    /// Statements per feature ("avoid doors", "stay on the path").
-    Semantic,
-}
+/// Which kind of feedback a teacher gives: `firmware-core`'s kinds, every one of the paper's
+/// Table 1 (see [`firmware_core::feedback`]).
+pub use firmware_core::FeedbackKind;
 
-impl FeedbackKind {
-    /// All kinds.
-    pub const ALL: [FeedbackKind; 3] = [
-        FeedbackKind::Action,
-        FeedbackKind::Preference,
-        FeedbackKind::Semantic,
-    ];
-
-    /// Its name: action, preference, semantic.
-    pub const fn name(self) -> &'static str {
-        match self {
-            FeedbackKind::Action => "action",
-            FeedbackKind::Preference => "preference",
-            FeedbackKind::Semantic => "semantic",
-        }
-    }
-}
+/// The paper's three kinds (section 6): what the reproduction of its experiments runs.
+pub const PAPER_KINDS: [FeedbackKind; 3] = [
+    FeedbackKind::Action,
+    FeedbackKind::Preference,
+    FeedbackKind::Semantic,
+];
 
 /// The teacher's view of one tick.
 #[derive(Clone, Debug)]
@@ -351,6 +337,10 @@ pub struct Judgement {
     /// Cross-track error of every action's end against the path reference (m), what a
     /// statement about the path is judged by ([`cross_track_errors`]).
     pub cross: [f32; MAX_ACTIONS],
+    /// The observation judged (a perturbation's corrected trajectory is measured in it): kept
+    /// by [`Teacher::judge`] and [`Teacher::judge_checked`]; `None` from
+    /// [`Teacher::judge_evaluation`], and a perturbation teacher then says nothing.
+    pub observation: Option<Observation>,
 }
 
 impl Judgement {
@@ -393,6 +383,11 @@ impl Teacher {
         &self.spec
     }
 
+    /// Its seeded generator (a mix draws its kinds from it).
+    pub(crate) fn rng(&mut self) -> &mut ChaCha8Rng {
+        &mut self.rng
+    }
+
     /// Checks `obs`, then [`Teacher::judge_checked`].
     pub fn judge(&mut self, obs: &Observation) -> Result<Judgement, ObservationError> {
         Ok(self.judge_checked(obs.check()?))
@@ -403,12 +398,16 @@ impl Teacher {
     /// on instead of evaluating the observation again.
     pub fn judge_checked(&mut self, obs: ValidObservation<'_>) -> Judgement {
         let evaluation = self.evaluator.evaluation(obs);
-        self.judge_evaluation(evaluation)
+        Judgement {
+            observation: Some(obs.get().clone()),
+            ..self.judge_evaluation(evaluation)
+        }
     }
 
     /// Perceives the latent loss of every action of an observation evaluated already (by any
     /// [`Evaluator`]: the same code, so the same bits; another teacher's judgement of the same
-    /// observation, for example).
+    /// observation, for example). The judgement holds no observation: a perturbation cannot be
+    /// measured in it (see [`Judgement::observation`]).
     pub fn judge_evaluation(&mut self, evaluation: Evaluation) -> Judgement {
         let table = evaluation.table();
         let allowed = evaluation.allowed();
@@ -451,6 +450,7 @@ impl Teacher {
             perceived,
             choice: choice.map(|(a, _)| a),
             cross,
+            observation: None,
         }
     }
 
@@ -477,6 +477,12 @@ impl Teacher {
         if random {
             match kind {
                 FeedbackKind::Preference => coin = Some(self.rng.random::<bool>()),
+                // Their random answers are drawn in teacher/kinds.rs.
+                FeedbackKind::Ranking
+                | FeedbackKind::Reward
+                | FeedbackKind::Correctness
+                | FeedbackKind::Span
+                | FeedbackKind::EStop => {}
                 _ => {
                     let allowed = j.allowed();
                     let n = allowed.count();
@@ -484,6 +490,17 @@ impl Teacher {
                     choice = allowed.iter().nth(k)?;
                 }
             }
+        }
+        if !matches!(
+            kind,
+            FeedbackKind::Action | FeedbackKind::Preference | FeedbackKind::Semantic
+        ) {
+            // The kinds beyond the paper's three (teacher/kinds.rs): nothing to say when its
+            // own choice is the learner's, as for action and semantic feedback.
+            if j.choice == Some(chosen) {
+                return None;
+            }
+            return self.other_kind(kind, j, chosen, choice, random);
         }
         match kind {
             FeedbackKind::Action => {
@@ -540,6 +557,7 @@ impl Teacher {
                 }
                 (!said.is_empty()).then_some(Feedback::Semantic(said))
             }
+            _ => None,
         }
     }
 }

@@ -304,8 +304,12 @@ fn grid_where_every_claim_holds() -> Vec<Aggregate> {
                         FeedbackKind::Action => 10.0,
                         FeedbackKind::Preference => 20.0,
                         FeedbackKind::Semantic => 30.0,
+                        k => unreachable!("the paper's grid runs its three kinds, not {k:?}"),
                     },
                 ),
+                (Group::Variety, m @ (Mode::Mix(_) | Mode::Cheapest)) => {
+                    unreachable!("the paper's grid has no {}", m.name())
+                }
                 (Group::Noise, _) => (1.0, 0.1 + s.noise as f64, 10.0 + 10.0 * s.noise as f64),
                 (Group::Thresholds, _) => (
                     1.0,

@@ -49,7 +49,7 @@ use crate::teach::experiment::{self, Mode};
 use crate::world::generator;
 use crate::world::registry;
 use crate::world::scenario::Scenario;
-use crate::world::teacher::{self, FeedbackKind, TeacherSpec};
+use crate::world::teacher::{self, FeedbackKind, PAPER_KINDS, TeacherSpec};
 
 /// The fixed worlds: the paper's three households and the basement scenario.
 pub const FIXED: [&str; 4] = ["doors", "stairs-right", "stairs-chairs", "basement"];
@@ -125,7 +125,7 @@ pub fn world_settings() -> Vec<Setting> {
         threshold,
         draw_path: false,
     };
-    let mut out: Vec<Setting> = FeedbackKind::ALL
+    let mut out: Vec<Setting> = PAPER_KINDS
         .into_iter()
         .map(|k| at(Group::Variety, Mode::Online(k), 0.0, 1.0))
         .collect();
