@@ -107,12 +107,17 @@ pub enum ParamError {
 impl fmt::Display for ParamError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            ParamError::Step => f.write_str("step size must be finite, positive and at most MAX_STEP"),
-            ParamError::Radius => {
-                f.write_str("projection radius must be finite, positive and at most WEIGHT_BOUND")
+            // The bounds are written out (a test checks them against the constants), so a user
+            // reads the number, not the constant's name.
+            ParamError::Step => {
+                f.write_str("step size must be finite, positive and at most 1000 (MAX_STEP)")
             }
+            ParamError::Radius => f.write_str(
+                "projection radius must be finite, positive and at most 1000000 (WEIGHT_BOUND)",
+            ),
             ParamError::Initial => f.write_str(
-                "initial weights must be finite, within WEIGHT_BOUND and inside the projection ball",
+                "initial weights must be finite, within ±1000000 (WEIGHT_BOUND) and inside the \
+                 projection ball",
             ),
         }
     }
@@ -143,3 +148,19 @@ impl fmt::Display for SnapshotError {
 }
 
 impl core::error::Error for SnapshotError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::string::ToString;
+
+    #[test]
+    fn parameter_errors_name_their_bounds() {
+        let step = std::format!("at most {} (MAX_STEP)", crate::MAX_STEP);
+        assert!(ParamError::Step.to_string().contains(&step));
+        let radius = std::format!("at most {} (WEIGHT_BOUND)", crate::WEIGHT_BOUND);
+        assert!(ParamError::Radius.to_string().contains(&radius));
+        let initial = std::format!("within ±{} (WEIGHT_BOUND)", crate::WEIGHT_BOUND);
+        assert!(ParamError::Initial.to_string().contains(&initial));
+    }
+}

@@ -132,7 +132,8 @@ enum Command {
         #[arg(long)]
         realtime: bool,
     },
-    /// Observation → action round trips over UDP loopback to a server thread.
+    /// Observation → action round trips over UDP loopback to a server thread, and a plain UDP
+    /// ping-pong on the same loopback interleaved with them (the floor).
     BenchLatency {
         /// The transport (only udp).
         #[arg(long, default_value = "udp")]
@@ -163,6 +164,8 @@ pub fn run_from(args: impl IntoIterator<Item = OsString>) -> ExitCode {
     };
     match run(cli.command) {
         Ok(()) => ExitCode::SUCCESS,
+        // Whoever read standard output has gone (`hil_mock bench-latency | head -1`).
+        Err(e) if closed_stdout(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("hil_mock: error: {e:#}");
             ExitCode::FAILURE
@@ -174,12 +177,11 @@ fn run(command: Command) -> Result<()> {
     match command {
         Command::Keygen { file } => {
             key::keygen(&file)?;
-            println!(
+            say(format_args!(
                 "wrote a new key to {}; give it to the car (hil_mock serve --key, or the \
                  firmware's CAR_KEY_FILE) and to its hosts (host-sim run --key)",
                 file.display()
-            );
-            Ok(())
+            ))
         }
         Command::Serve {
             link,
@@ -239,8 +241,11 @@ fn run(command: Command) -> Result<()> {
             let frames = read_log(&log)?;
             let mut link = address.open(Duration::from_secs(10))?;
             let n = replay(&frames, &mut *link, realtime)?;
-            println!("replayed {n} frames from {} to {address}", log.display());
-            Ok(())
+            let frames = if n == 1 { "frame" } else { "frames" };
+            say(format_args!(
+                "replayed {n} {frames} from {} to {address}",
+                log.display()
+            ))
         }
         Command::BenchLatency { link, count } => {
             if link != "udp" {
@@ -250,14 +255,41 @@ fn run(command: Command) -> Result<()> {
                 bail!("--count must be at least 1");
             }
             let r = bench_latency(count)?;
-            println!(
+            say(format_args!(
                 "{} observation → action round trips over UDP loopback (CAN FD frames, {} per observation): \
                  p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
-                r.count, r.frames_per_observation, r.p50_us, r.p99_us, r.max_us
-            );
-            Ok(())
+                r.count, r.frames_per_observation, r.link.p50_us, r.link.p99_us, r.link.max_us
+            ))?;
+            say(format_args!(
+                "{} plain UDP ping-pongs of {PING_BYTES} bytes on the same loopback, interleaved: \
+                 p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
+                r.count, r.ping.p50_us, r.ping.p99_us, r.ping.max_us
+            ))?;
+            say(format_args!(
+                "the link over the ping-pong: p50 {:.1}×, p99 {:.1}×",
+                r.link.p50_us / r.ping.p50_us,
+                r.link.p99_us / r.ping.p99_us
+            ))
         }
     }
+}
+
+/// Writes one line to standard output, returning the error of a closed pipe instead of
+/// panicking as `println!` does.
+fn say(line: std::fmt::Arguments<'_>) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{line}")?;
+    out.flush()?;
+    Ok(())
+}
+
+/// Whether `e` is standard output's reader gone (a broken pipe): the command then ends quietly
+/// with success.
+fn closed_stdout(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+    })
 }
 
 /// Opens a link for serving; a listening address on port 0 gets an ephemeral port. Prints
@@ -267,17 +299,14 @@ fn open_serving(
     idle_timeout: Duration,
     connect_timeout: Duration,
 ) -> Result<Box<dyn Link>> {
-    let say = |what: &str, a: &str| {
-        println!("{what} {a}");
-        let _ = std::io::stdout().flush();
-    };
+    let say = |what: &str, a: &str| say(format_args!("{what} {a}"));
     Ok(match address {
         LinkAddress::UdpListen(a) => {
             let link = UdpLink::listen(*a)?;
             let SocketAddr::V4(local) = link.local_addr()? else {
                 bail!("udp bound to a non-IPv4 address");
             };
-            say("listening on", &LinkAddress::UdpListen(local).to_string());
+            say("listening on", &LinkAddress::UdpListen(local).to_string())?;
             Box::new(link)
         }
         LinkAddress::SlcanTcpListen(a) => {
@@ -290,12 +319,12 @@ fn open_serving(
             say(
                 "listening on",
                 &LinkAddress::SlcanTcpListen(local).to_string(),
-            );
+            )?;
             Box::new(SlcanListener::from_listener(listener, idle_timeout)?)
         }
         other => {
             let link = other.open(connect_timeout)?;
-            say("connected to", &other.to_string());
+            say("connected to", &other.to_string())?;
             link
         }
     })
@@ -333,23 +362,54 @@ fn serve(server: &mut Server, mut link: Box<dyn Link>) -> Result<()> {
     }
 }
 
-/// Round-trip figures of [`bench_latency`].
+/// Percentiles of one set of round trips (µs).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Latency {
-    /// Round trips measured.
-    pub count: u32,
-    /// CAN FD frames per observation.
-    pub frames_per_observation: usize,
-    /// Median (µs).
+pub struct RoundTrips {
+    /// Median.
     pub p50_us: f64,
-    /// 99th percentile (µs).
+    /// 99th percentile.
     pub p99_us: f64,
-    /// Largest (µs).
+    /// Largest.
     pub max_us: f64,
 }
 
+impl RoundTrips {
+    /// The percentiles of `samples` (µs; sorted here). `samples` must not be empty.
+    fn of(samples: &mut [f64]) -> Self {
+        samples.sort_by(f64::total_cmp);
+        let at = |q: f64| samples[((samples.len() as f64 * q) as usize).min(samples.len() - 1)];
+        Self {
+            p50_us: at(0.50),
+            p99_us: at(0.99),
+            max_us: samples[samples.len() - 1],
+        }
+    }
+}
+
+/// Round-trip figures of [`bench_latency`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Latency {
+    /// Round trips measured (of each kind).
+    pub count: u32,
+    /// CAN FD frames per observation.
+    pub frames_per_observation: usize,
+    /// Observation → action through the car's server.
+    pub link: RoundTrips,
+    /// The floor: a plain UDP ping-pong of one datagram of [`PING_BYTES`] each way between two
+    /// blocking sockets on the same loopback, measured interleaved with `link`.
+    pub ping: RoundTrips,
+}
+
+/// Size of the ping-pong's datagram: a cannelloni packet of one 64-byte CAN FD frame.
+pub const PING_BYTES: usize = crate::transport::udp::HEADER_LEN + 6 + 64;
+
+/// Round trips of each kind measured in turn, so that both see the same load.
+const BENCH_BLOCK: u32 = 100;
+
 /// Starts a server thread on UDP 127.0.0.1 (ephemeral port) and measures `count` observation →
-/// action round trips (after 100 unmeasured ones), CAN FD frames both ways.
+/// action round trips (after 100 unmeasured ones), CAN FD frames both ways; and, interleaved
+/// with them in blocks of 100, `count` round trips of a plain UDP ping-pong on the same loopback
+/// (an echo thread), the floor any UDP transport stands on.
 pub fn bench_latency(count: u32) -> Result<Latency> {
     let mut car_link = UdpLink::listen(SocketAddrV4::new(std::net::Ipv4Addr::LOCALHOST, 0))?;
     let SocketAddr::V4(car_addr) = car_link.local_addr()? else {
@@ -368,9 +428,11 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
             },
             &car_key,
             epoch,
-        );
+        )
+        .without_event_lines();
         server.run(&mut car_link, &flag)
     });
+    let (mut ping, echo) = ping_pong()?;
     let mut host = UdpLink::connect(car_addr)?;
     let mut sec = HostSecurity::assume_fresh_car(&key, epoch);
     let mut inbox = Inbox::new(Direction::CarToHost);
@@ -396,9 +458,19 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
         }
     }
     let mut samples = Vec::with_capacity(count as usize);
+    let mut floor = Vec::with_capacity(count as usize);
     let mut frames_per_observation = 0;
     let warmup = 100;
     for tick in 0..count + warmup {
+        if tick % BENCH_BLOCK == 0 {
+            let n = BENCH_BLOCK.min(count + warmup - tick);
+            for _ in 0..n {
+                let us = ping(tick)?;
+                if tick >= warmup {
+                    floor.push(us);
+                }
+            }
+        }
         let mut obs = Observation::open_space();
         obs.scan.ranges[(tick % 64) as usize] = 2.0 + (tick % 7) as f32 * 0.5;
         let msg = Message::Observation(ObservationMessage {
@@ -433,18 +505,66 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
         }
     }
     stop.store(true, Ordering::Relaxed);
+    drop(ping);
+    echo.join()
+        .map_err(|_| anyhow::anyhow!("the echo thread panicked"))??;
     server
         .join()
         .map_err(|_| anyhow::anyhow!("the server thread panicked"))??;
-    samples.sort_by(f64::total_cmp);
-    let at = |q: f64| samples[((samples.len() as f64 * q) as usize).min(samples.len() - 1)];
     Ok(Latency {
         count,
         frames_per_observation,
-        p50_us: at(0.50),
-        p99_us: at(0.99),
-        max_us: samples[samples.len() - 1],
+        link: RoundTrips::of(&mut samples),
+        ping: RoundTrips::of(&mut floor),
     })
+}
+
+/// A plain UDP ping-pong on 127.0.0.1: an echo thread on a blocking socket, and a function that
+/// sends one [`PING_BYTES`] datagram to it and waits (blocking) for it to come back, returning
+/// the round trip in µs. Dropping the function sends the echo thread an empty datagram, which
+/// ends it.
+#[allow(clippy::type_complexity)]
+fn ping_pong() -> Result<(
+    impl FnMut(u32) -> Result<f64>,
+    std::thread::JoinHandle<Result<()>>,
+)> {
+    use std::net::UdpSocket;
+    let echo = UdpSocket::bind("127.0.0.1:0").context("bind the echo socket")?;
+    let at = echo.local_addr()?;
+    let handle = std::thread::spawn(move || -> Result<()> {
+        let mut buf = [0u8; 2 * PING_BYTES];
+        loop {
+            let (n, from) = echo.recv_from(&mut buf).context("echo receive")?;
+            if n == 0 {
+                return Ok(());
+            }
+            echo.send_to(&buf[..n], from).context("echo send")?;
+        }
+    });
+    let socket = UdpSocket::bind("127.0.0.1:0").context("bind the ping socket")?;
+    socket.connect(at).context("connect the ping socket")?;
+    socket.set_read_timeout(Some(Duration::from_secs(5)))?;
+    struct Pinger(std::net::UdpSocket);
+    impl Drop for Pinger {
+        fn drop(&mut self) {
+            let _ = self.0.send(&[]);
+        }
+    }
+    let pinger = Pinger(socket);
+    let ping = move |n: u32| -> Result<f64> {
+        let mut packet = [0u8; PING_BYTES];
+        packet[..4].copy_from_slice(&n.to_le_bytes());
+        let mut back = [0u8; 2 * PING_BYTES];
+        let t0 = Instant::now();
+        pinger.0.send(&packet).context("ping send")?;
+        let got = pinger.0.recv(&mut back).context("no echo within 5 s")?;
+        let us = t0.elapsed().as_secs_f64() * 1e6;
+        if back[..got] != packet {
+            bail!("the echo came back changed");
+        }
+        Ok(us)
+    };
+    Ok((ping, handle))
 }
 
 #[cfg(test)]
@@ -573,6 +693,8 @@ mod tests {
         let r = bench_latency(50).unwrap();
         assert_eq!(r.count, 50);
         assert!(r.frames_per_observation >= 2, "{r:?}");
-        assert!(r.p50_us <= r.p99_us && r.p99_us <= r.max_us);
+        for t in [r.link, r.ping] {
+            assert!(t.p50_us <= t.p99_us && t.p99_us <= t.max_us, "{r:?}");
+        }
     }
 }

@@ -80,12 +80,13 @@ const _: () = assert!(
 #[derive(Debug, thiserror::Error)]
 pub enum FlashError {
     /// Reading or writing the backing file failed.
-    #[error("flash file {path}: {source}")]
+    #[error("flash file {path}: {error}")]
     Io {
         /// The backing file.
         path: PathBuf,
-        /// What the OS said.
-        source: std::io::Error,
+        /// What the OS said (in the message, so not a `source`: a chain of causes prints it
+        /// once).
+        error: std::io::Error,
     },
     /// The state does not fit in a page (cannot happen: checked at compile time).
     #[error("state does not fit in a {PAGE_SIZE}-byte page")]
@@ -234,9 +235,9 @@ impl FlashStore {
         open: Open,
     ) -> Result<(Self, Option<Restored>), FlashError> {
         let path = path.as_ref().to_path_buf();
-        let io = |source| FlashError::Io {
+        let io = |error| FlashError::Io {
             path: path.clone(),
-            source,
+            error,
         };
         let mut file = OpenOptions::new()
             .read(true)
@@ -290,9 +291,9 @@ impl FlashStore {
             None => (0, 1),
         };
         let bytes = encode_page(generation, state)?;
-        let io = |source| FlashError::Io {
+        let io = |error| FlashError::Io {
             path: self.path.clone(),
-            source,
+            error,
         };
         self.file
             .seek(SeekFrom::Start((HEADER_SIZE + page * PAGE_SIZE) as u64))

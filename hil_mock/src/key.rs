@@ -25,12 +25,13 @@ use rand::TryRng;
 #[non_exhaustive]
 pub enum KeyFileError {
     /// Reading or writing the file failed.
-    #[error("key file {path}: {source}")]
+    #[error("key file {path}: {error}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// What the OS said.
-        source: std::io::Error,
+        /// What the OS said (in the message, so not a `source`: a chain of causes prints it
+        /// once).
+        error: std::io::Error,
     },
     /// The file does not hold a key.
     #[error(
@@ -92,9 +93,9 @@ pub fn random_nonce() -> Result<[u8; NONCE_LEN], KeyFileError> {
 
 /// Reads the key in `path`. The all-zero key is refused (it is `--insecure`'s).
 pub fn read_key_file(path: &Path) -> Result<Key, KeyFileError> {
-    let text = std::fs::read(path).map_err(|source| KeyFileError::Io {
+    let text = std::fs::read(path).map_err(|error| KeyFileError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     })?;
     let malformed = |error| KeyFileError::Malformed {
         path: path.to_path_buf(),
@@ -111,9 +112,9 @@ pub fn read_key_file(path: &Path) -> Result<Key, KeyFileError> {
 /// Writes a new random key to `path` (mode 0600), refusing to overwrite a file.
 pub fn keygen(path: &Path) -> Result<Key, KeyFileError> {
     let key = random_key()?;
-    let io = |source| KeyFileError::Io {
+    let io = |error| KeyFileError::Io {
         path: path.to_path_buf(),
-        source,
+        error,
     };
     let mut options = std::fs::OpenOptions::new();
     options.write(true).create_new(true);

@@ -9,6 +9,12 @@
 //! OS could not send) is counted and written to stderr at a bounded rate ([`Reports`]): the
 //! first few in full, then one summary line at most every [`SUMMARY_INTERVAL`] while anything
 //! new happened, so a flood cannot flood the log.
+//!
+//! What happens to the car is written to stderr too, one line each ([`Server::step`]): a
+//! session starts (an authenticated configuration of the next session: the learner it holds),
+//! and the car stops (its watchdog, or a reset by the host; the stop of a new configuration is
+//! its session's line). What the car restored from its flash when it started is the line of
+//! [`StartState`].
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -271,6 +277,16 @@ pub struct Server {
     store: Store,
     start: Instant,
     reports: Reports,
+    /// Write a line to stderr when a session starts or the car stops.
+    log_events: bool,
+}
+
+/// The state `Server::events` compares: the session and the stops so far.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Watched {
+    session: Option<u8>,
+    watchdog_stops: u32,
+    commanded_stops: u32,
 }
 
 /// How long one receive waits before the server polls the node again.
@@ -292,7 +308,14 @@ impl Server {
             store,
             start,
             reports: Reports::new(start),
+            log_events: true,
         }
+    }
+
+    /// Without the lines of sessions and stops on stderr (a benchmark's car).
+    pub fn without_event_lines(mut self) -> Self {
+        self.log_events = false;
+        self
     }
 
     /// A server persisting to the flash file at `path` (see [`FlashStore::open`] for `open`),
@@ -348,10 +371,62 @@ impl Server {
         }
     }
 
+    /// What the lines of `events` are about.
+    fn watched(&self) -> Watched {
+        let s = self.node.stats();
+        Watched {
+            session: self.node.session(),
+            watchdog_stops: s.watchdog_stops,
+            commanded_stops: s.commanded_stops,
+        }
+    }
+
+    /// One line for each thing that happened to the car since `before`: a session started, the
+    /// car stopped.
+    fn events(&self, before: Watched) -> Vec<String> {
+        let now = self.watched();
+        let mut lines = Vec::new();
+        if now.session != before.session
+            && let Some(session) = now.session
+        {
+            let learner = self.node.agent().learner();
+            lines.push(format!(
+                "session {session} started: the host configured a learner ({}, {} steps in)",
+                learner.kind().name(),
+                learner.state().steps
+            ));
+        }
+        if now.watchdog_stops > before.watchdog_stops {
+            lines.push(format!(
+                "stopped: the watchdog (no observation for {} ms)",
+                self.node.config().watchdog_ms
+            ));
+        }
+        // A new configuration stops the car too: its line is the session's.
+        let commanded = now.commanded_stops - before.commanded_stops;
+        let reconfigured = u32::from(now.session != before.session);
+        if commanded > reconfigured {
+            lines.push("stopped: the host reset the car".to_string());
+        }
+        lines
+    }
+
     /// Waits up to `timeout` for one frame and handles it, then polls the node. Malformed input,
     /// lost and refused messages and answers the OS did not send are counted and reported at a
-    /// bounded rate; other link failures are returned.
+    /// bounded rate; other link failures are returned. A session's start and the car's stops
+    /// are written to stderr, one line each.
     pub fn step(&mut self, link: &mut dyn Link, timeout: Duration) -> Result<(), LinkError> {
+        let before = self.watched();
+        let result = self.handle(link, timeout);
+        if self.log_events {
+            for line in self.events(before) {
+                eprintln!("hil_mock: {line}");
+            }
+        }
+        result
+    }
+
+    fn handle(&mut self, link: &mut dyn Link, timeout: Duration) -> Result<(), LinkError> {
         let got = match link.recv(timeout) {
             Ok(f) => f,
             Err(e @ LinkError::Malformed { .. }) => {
@@ -502,6 +577,71 @@ mod tests {
         stop.store(true, Ordering::Relaxed);
         let stats = handle.join().unwrap().unwrap();
         assert_eq!((stats.observations, stats.actions), (3, 3));
+    }
+
+    /// One line per session start and stop, and no line for the stop a configuration implies.
+    #[test]
+    fn a_session_s_start_and_the_car_s_stops_are_one_line_each() {
+        let (mut host, mut car) = MemoryLink::pair();
+        let config = CarConfig {
+            mode: FrameMode::Fd,
+            watchdog_ms: 200,
+        };
+        let mut server = Server::in_memory(config, &KEY, 5);
+        let mut sec = HostSecurity::assume_fresh_car(&KEY, 5);
+        let mut send_and_serve = |server: &mut Server, msg: Option<&Message>| {
+            if let Some(m) = msg {
+                transmit(
+                    &mut LinkBus(&mut host),
+                    m,
+                    Direction::HostToCar,
+                    FrameMode::Fd,
+                    &mut sec,
+                )
+                .unwrap();
+            }
+            let before = server.watched();
+            for _ in 0..5 {
+                server.handle(&mut car, Duration::from_millis(2)).unwrap();
+            }
+            server.events(before)
+        };
+        let configure = |session| {
+            Message::Configure(ConfigureMessage {
+                session,
+                snapshot: fresh_learner().snapshot(),
+            })
+        };
+        assert_eq!(
+            send_and_serve(&mut server, Some(&configure(1))),
+            ["session 1 started: the host configured a learner (averaged-ogd, 0 steps in)"]
+        );
+        assert_eq!(
+            send_and_serve(&mut server, Some(&configure(1))),
+            Vec::<String>::new(),
+            "a copy starts nothing"
+        );
+        let obs = Message::Observation(ObservationMessage {
+            tick: 0,
+            observation: Observation::open_space(),
+        });
+        assert_eq!(
+            send_and_serve(&mut server, Some(&obs)),
+            Vec::<String>::new()
+        );
+        std::thread::sleep(Duration::from_millis(300));
+        assert_eq!(
+            send_and_serve(&mut server, None),
+            ["stopped: the watchdog (no observation for 200 ms)"]
+        );
+        assert_eq!(
+            send_and_serve(&mut server, Some(&Message::Reset)),
+            ["stopped: the host reset the car"]
+        );
+        assert_eq!(
+            send_and_serve(&mut server, Some(&configure(2))),
+            ["session 2 started: the host configured a learner (averaged-ogd, 0 steps in)"]
+        );
     }
 
     #[test]

@@ -33,6 +33,8 @@
 //!    drawings, and the report's sections.
 //!
 //! The `host-sim` command (`src/main.rs`, its commands in `src/cli/`) sits on top of the three.
+//! Beside them, [`checks`] checks the numbers a user gives, the same way and in the same words
+//! wherever they come from: a flag, a scenario file, a configuration built in code.
 //!
 //! Every random choice takes a seed and no clock is read: the same configuration gives
 //! bit-identical records.
@@ -40,6 +42,7 @@
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+pub mod checks;
 pub mod report;
 pub mod teach;
 pub mod world;

@@ -10,13 +10,14 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use firmware_core::{LearnerKind, LearnerParams};
+use host_sim::checks;
 use host_sim::teach::experiment::{self, InProcessLink, Mode, RunConfig};
 use host_sim::world::registry;
 use host_sim::world::teacher::StatementSet;
 
 mod cli;
 
-use cli::{parse_kind, prepare_out, progress_bar};
+use cli::{out, outln, parse_kind, prepare_out, progress_bar};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -58,9 +59,10 @@ enum Command {
     /// Run one experiment: a learner taught by a programmatic teacher in a household.
     ///
     /// Writes DIR/steps.csv (one row per control tick: step, action, teacher_action,
-    /// latent_loss, corrected, corrections, collision, reset, lap, progress, x, y, theta) and
-    /// DIR/summary.json (configuration, seed, final weights, totals, mean latent loss of the
-    /// first and last 10% of the steps, wall time).
+    /// latent_loss, corrected, corrections, collision, reset, lap, progress, x, y, theta; units
+    /// in docs/outputs.md), DIR/summary.json (configuration, seed, final weights by feature,
+    /// totals, mean latent loss of the first and last 10% of the steps, wall time) and
+    /// DIR/run.png and run.svg (the latent loss and the corrections against the tick).
     Run(RunArgs),
     /// List the built-in scenarios, teacher presets and experiments.
     List,
@@ -78,19 +80,10 @@ enum Command {
         #[arg(long, default_value = "lattice.svg")]
         out: PathBuf,
     },
-    /// Draw a scenario's map, path and objects into a PNG, optionally with the poses of a run.
-    Draw {
-        /// Scenario name or file.
-        #[arg(long, default_value = "doors")]
-        scenario: String,
-        /// A steps.csv of `host-sim run` whose poses to draw.
-        #[arg(long)]
-        run: Option<PathBuf>,
-        /// The PNG file to write.
-        #[arg(long, default_value = "scenario.png")]
-        out: PathBuf,
-    },
-    /// Reproduce the paper's section 6: the variety, noise (and sigma sweep) and threshold
+    /// Draw a scenario's map, path and objects into a PNG, optionally with the poses of a run,
+    /// or a run as an animation (--run DIR --animate OUT).
+    Draw(cli::inspect::DrawArgs),
+    /// Reproduce the paper's section 6: the variety, noise (and σ sweep) and threshold
     /// experiments and the path figures, trials in parallel.
     ///
     /// Writes into DIR: variety.csv, noise.csv, thresholds.csv (per step: mean and standard
@@ -107,15 +100,17 @@ enum Command {
     /// answers, in every world (docs/learners.md), and the learner `run` uses by default for
     /// each kind of feedback, chosen from it by a stated rule. Writes Markdown.
     Learners {
-        /// Seeds per cell.
-        #[arg(long, default_value_t = 3)]
+        /// Seeds per cell, 1 to 100.
+        #[arg(long, default_value_t = 3, allow_negative_numbers = true,
+              value_parser = checks::count_flag(host_sim::teach::learners::SEEDS))]
         seeds: u32,
-        /// Steps per run.
-        #[arg(long, default_value_t = 5_000)]
+        /// Steps per run, 10 to 10 000 000.
+        #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+              value_parser = checks::count_flag(host_sim::teach::learners::STEPS))]
         steps: u32,
         /// Worker threads (default: one per core). The output does not depend on it.
-        #[arg(long)]
-        jobs: Option<usize>,
+        #[arg(long, allow_negative_numbers = true, value_parser = checks::count_flag(cli::JOBS))]
+        jobs: Option<u32>,
         /// The Markdown file to write.
         #[arg(long, default_value = "out/learners.md")]
         out: PathBuf,
@@ -139,8 +134,9 @@ enum Command {
         /// Scenario name or file.
         #[arg(long, default_value = "doors")]
         scenario: String,
-        /// Steps to simulate.
-        #[arg(long, default_value_t = 5_000)]
+        /// Steps to simulate, 1 to 10 000 000.
+        #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+              value_parser = checks::count_flag(1..=checks::MAX_STEPS))]
         steps: u32,
     },
 }
@@ -157,27 +153,39 @@ struct RunArgs {
     /// teacher's own policy drives, frozen).
     #[arg(long, default_value = "action", value_parser = parse_mode)]
     feedback: Mode,
-    /// Number of control ticks (0.1 s each).
-    #[arg(long, default_value_t = 5_000)]
+    /// Number of control ticks (0.1 s each), 1 to 10 000 000.
+    #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+          value_parser = checks::count_flag(1..=checks::MAX_STEPS))]
     steps: u32,
     /// Seed of the teacher's noise and random queries; the same seed gives the same CSV bytes.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// The teacher corrects when its perceived latent loss of the learner's action exceeds
-    /// this (default: the scenario's, 1.0 unless it says otherwise).
-    #[arg(long, allow_negative_numbers = true)]
-    threshold: Option<f32>,
-    /// Standard deviation of the Gaussian noise on every latent loss the teacher perceives
-    /// (default: the scenario's, 0 unless it says otherwise).
-    #[arg(long, allow_negative_numbers = true)]
-    noise: Option<f32>,
+    /// this, 0 to 1000 (default: the scenario's, 1.0 unless it says otherwise).
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::threshold))]
+    threshold: Option<f64>,
+    /// Standard deviation σ of the Gaussian noise on every latent loss the teacher perceives,
+    /// 0 to 1000 (default: the scenario's, 0 unless it says otherwise).
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::noise))]
+    noise: Option<f64>,
     /// Online learner: ogd, ogd-decaying, averaged-ogd, adagrad or coactive. Default: the one
     /// docs/learners.md chose for the kind of feedback (`host-sim learners`).
-    #[arg(long, value_parser = parse_kind)]
+    #[arg(long, value_parser = parse_kind, conflicts_with = "load_learner")]
     learner: Option<LearnerKind>,
-    /// Step size (default: the learner's own: 0.01 for the OGD family, 0.1 AdaGrad, 1 coactive).
-    #[arg(long, allow_negative_numbers = true)]
-    step: Option<f32>,
+    /// Step size, in (0, 1000] (default: the learner's own: 0.01 for the OGD family, 0.1
+    /// AdaGrad, 1 coactive).
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "load_learner",
+          value_parser = checks::flag(checks::step_size))]
+    step: Option<f64>,
+    /// Start from the learner in this file (parameters and state, as `--save-learner` wrote
+    /// it) instead of a fresh one: teach it further, or test it in another household. Online
+    /// feedback only; a file of another format version, or a corrupted one, is refused.
+    #[arg(long, value_name = "FILE")]
+    load_learner: Option<PathBuf>,
+    /// After the run, write the learner (parameters and state: the versioned snapshot the car
+    /// persists in its flash) to this file, for `--load-learner`.
+    #[arg(long, value_name = "FILE")]
+    save_learner: Option<PathBuf>,
     /// What the semantic teacher says: paper (doors, stairs, chairs and the path by cross-track
     /// error, the paper's teacher; the default) or rich (every feature the teacher weighs, also
     /// obstacles and keep right).
@@ -185,8 +193,8 @@ struct RunArgs {
     statements: StatementSet,
     /// Probability that a correction answers at random (a random action, statements towards a
     /// random action, or a coin's preference), drawn from the run's seed. Default 0.
-    #[arg(long, allow_negative_numbers = true)]
-    random_answers: Option<f32>,
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::probability))]
+    random_answers: Option<f64>,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out")]
     out: PathBuf,
@@ -291,17 +299,26 @@ fn run_config(args: &RunArgs) -> Result<RunConfig> {
         .unwrap_or_else(|| host_sim::teach::learners::default_learner(args.feedback));
     let mut learner = LearnerParams::new(kind);
     if let Some(step) = args.step {
-        learner = learner.with_step(step);
+        learner = learner.with_step(step as f32);
     }
+    let initial = match &args.load_learner {
+        Some(path) => {
+            let snapshot = host_sim::teach::learner_file::load(path)?;
+            learner = snapshot.params;
+            Some(snapshot)
+        }
+        None => None,
+    };
     let config = RunConfig {
         mode: args.feedback,
         steps: args.steps,
         seed: args.seed,
-        threshold: args.threshold,
-        noise: args.noise,
+        threshold: args.threshold.map(|t| t as f32),
+        noise: args.noise.map(|n| n as f32),
         learner,
         statements: Some(args.statements),
-        random_answers: args.random_answers,
+        random_answers: args.random_answers.map(|p| p as f32),
+        initial,
         ..RunConfig::new(Arc::new(scenario))
     };
     config.check()?;
@@ -310,7 +327,7 @@ fn run_config(args: &RunArgs) -> Result<RunConfig> {
 
 fn run(args: &RunArgs) -> Result<()> {
     let config = run_config(args)?;
-    prepare_out(&args.out)?;
+    let out_dir = prepare_out(&args.out)?;
     let bar = progress_bar(
         config.steps as u64,
         "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} steps ({per_sec}) {msg}",
@@ -330,12 +347,29 @@ fn run(args: &RunArgs) -> Result<()> {
         .with_context(|| format!("{}: cannot write", csv.display()))?;
     let mut summary = report.summary();
     summary["wall_time_s"] = serde_json::json!(wall);
+    // Where the scenario came from, so `draw --run` finds it and refuses another.
+    let source = &config.scenario.source;
+    let source = std::fs::canonicalize(source).unwrap_or_else(|_| source.clone());
+    summary["config"]["scenario_file"] = serde_json::json!(source);
+    if let (Some(path), Some(initial)) = (&args.load_learner, &config.initial) {
+        summary["config"]["loaded_learner"] = serde_json::json!({
+            "file": path,
+            "learner_steps": initial.state.steps,
+            "weights": host_sim::teach::record::weights_by_name(&initial.state.average),
+        });
+    }
     let json = args.out.join("summary.json");
     let text = serde_json::to_string_pretty(&summary)?;
     std::fs::write(&json, text + "\n")
         .with_context(|| format!("{}: cannot write", json.display()))?;
+    let figure = args.out.join("run");
+    host_sim::report::run_figure::write_run_figure(&figure, &report)?;
+    if let Some(path) = &args.save_learner {
+        host_sim::teach::learner_file::save(&report.final_snapshot, path)?;
+    }
+    out_dir.keep();
     let (first, last) = report.first_last(0.1);
-    println!(
+    outln!(
         "{} / {} / seed {}: {} steps, mean latent loss {:.3} (first 10%) -> {:.3} (last 10%), {} corrections, {}",
         report.scenario,
         config.mode.name(),
@@ -345,13 +379,25 @@ fn run(args: &RunArgs) -> Result<()> {
         last,
         report.corrections(),
         report.task_success().describe()
-    );
-    println!("final weights {:?}", report.final_snapshot.state.average);
-    println!(
-        "wrote {} and {} ({wall:.2} s)",
+    )?;
+    outln!(
+        "final weights: {}",
+        host_sim::teach::record::describe_weights(&report.final_snapshot.state.average)
+    )?;
+    outln!(
+        "wrote {}, {} and {} ({wall:.2} s)",
         csv.display(),
-        json.display()
-    );
+        json.display(),
+        figure.with_extension("png").display()
+    )?;
+    if let Some(path) = &args.save_learner {
+        outln!(
+            "saved the learner ({}, {} steps) to {}",
+            config.learner.kind.name(),
+            report.final_snapshot.state.steps,
+            path.display()
+        )?;
+    }
     Ok(())
 }
 
@@ -363,19 +409,16 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Demo(args) => cli::demo::demo(args),
         Command::Run(args) => run(args),
-        Command::List => {
-            cli::inspect::list();
-            Ok(())
-        }
-        Command::GenMaps { out } => host_sim::world::households::write_all(out).map(|files| {
+        Command::List => cli::inspect::list(),
+        Command::GenMaps { out } => host_sim::world::households::write_all(out).and_then(|files| {
             for f in files {
-                println!("wrote {f}");
+                outln!("wrote {f}")?;
             }
+            Ok(())
         }),
         Command::Generate(args) => cli::generate::run(args),
-        Command::Lattice { out } => host_sim::report::plot::lattice_svg(out).map(|()| {
-            println!("wrote {}", out.display());
-        }),
+        Command::Lattice { out } => host_sim::report::plot::lattice_svg(out)
+            .and_then(|()| Ok(outln!("wrote {}", out.display())?)),
         Command::Bench { scenario, steps } => cli::inspect::bench(scenario, *steps),
         Command::Reproduce(args) => cli::reproduce::reproduce(args),
         Command::Merge { dirs, out } => cli::reproduce::merge(dirs, out),
@@ -386,13 +429,14 @@ fn main() -> ExitCode {
             jobs,
             out,
         } => cli::learners::learners(*seeds, *steps, *jobs, out),
-        Command::Calibrate => host_sim::teach::calibrate::run().map(|c| {
-            print!("{}", host_sim::teach::calibrate::markdown(&c));
-        }),
-        Command::Draw { scenario, run, out } => cli::inspect::draw(scenario, run.as_deref(), out),
+        Command::Calibrate => host_sim::teach::calibrate::run()
+            .and_then(|c| Ok(out!("{}", host_sim::teach::calibrate::markdown(&c))?)),
+        Command::Draw(args) => cli::inspect::draw(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // Whoever read standard output has gone (`host-sim list | head -1`): nothing to say.
+        Err(e) if cli::closed_stdout(&e) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("host-sim: error: {e:#}");
             ExitCode::FAILURE

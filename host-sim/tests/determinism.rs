@@ -63,3 +63,52 @@ fn runs_in_parallel_equal_runs_in_sequence() {
         assert_eq!(p.unwrap().csv_bytes(), seq.csv_bytes());
     }
 }
+
+/// The learner acting on the teacher's evaluation (what `InProcessLink::act_evaluated` does)
+/// decides exactly as the learner evaluating the observation itself (what a car does).
+#[test]
+fn the_shared_evaluation_gives_the_bytes_of_an_evaluation_of_its_own() {
+    use anyhow::Result;
+    use firmware_core::LearnerSnapshot;
+    use firmware_core::agent::Decision;
+    use firmware_core::observation::Observation;
+    use firmware_core::{Feedback, Learner};
+    use host_sim::teach::experiment::CarLink;
+
+    /// Only `act`: the default `act_evaluated` ignores the host's evaluation.
+    struct OwnEvaluation(firmware_core::agent::Agent);
+    impl CarLink for OwnEvaluation {
+        fn restore(&mut self, snapshot: &LearnerSnapshot) -> Result<()> {
+            self.0
+                .set_learner(Learner::restore(snapshot).map_err(anyhow::Error::msg)?);
+            self.0.forget_ticks();
+            Ok(())
+        }
+        fn act(&mut self, tick: u32, obs: &Observation) -> Result<Decision> {
+            self.0.act(tick, obs).map_err(anyhow::Error::msg)
+        }
+        fn feedback(&mut self, tick: u32, feedback: &Feedback) -> Result<()> {
+            self.0
+                .feedback(tick, feedback)
+                .map(|_| ())
+                .map_err(anyhow::Error::msg)
+        }
+        fn snapshot(&mut self) -> Result<LearnerSnapshot> {
+            Ok(self.0.learner().snapshot())
+        }
+    }
+
+    for kind in FeedbackKind::ALL {
+        let c = RunConfig {
+            mode: Mode::Online(kind),
+            ..golden_config()
+        };
+        let shared = experiment::run(&c).unwrap();
+        let params = c.learner.check().unwrap();
+        let mut own = OwnEvaluation(firmware_core::agent::Agent::new(Learner::new(params)));
+        let alone = experiment::run_with(&c, &mut own, &mut |_| {}).unwrap();
+        assert!(shared.corrections() > 10, "{kind:?}");
+        assert_eq!(shared.csv_bytes(), alone.csv_bytes(), "{kind:?}");
+        assert_eq!(shared.final_snapshot, alone.final_snapshot, "{kind:?}");
+    }
+}

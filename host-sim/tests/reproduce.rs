@@ -250,15 +250,15 @@ fn bad_options_are_clear_errors() {
         ),
         (
             &["reproduce", "--trials", "0", "--out", out],
-            "--trials must be",
+            "'--trials <TRIALS>': must be in 1..=10000, got 0",
         ),
         (
             &["reproduce", "--steps", "5", "--out", out],
-            "--steps must be",
+            "'--steps <STEPS>': must be in 10..=10000000, got 5",
         ),
         (
             &["reproduce", "--jobs", "0", "--out", out],
-            "--jobs must be",
+            "'--jobs <JOBS>': must be in 1..=1024, got 0",
         ),
         (&["merge", "/no/such/dir", "--out", out], "cannot read"),
     ];

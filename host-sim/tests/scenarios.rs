@@ -109,7 +109,10 @@ fn bad_scenarios_name_the_field() {
     let e = err("[start]\nx = 0.1\ny = 1.0\ntheta = 0.0\n");
     assert!(e.contains("start: the car's footprint"), "{e}");
     let e = err("[start]\nx = 1.0\ny = 1.0\n");
-    assert!(e.contains("bad TOML") && e.contains("theta"), "{e}");
+    assert!(
+        e.contains("TOML parse error at line") && e.contains("theta"),
+        "{e}"
+    );
 
     let tmp = tempfile::tempdir().unwrap();
     let base = room(tmp.path(), "");
@@ -132,7 +135,7 @@ fn bad_scenarios_name_the_field() {
         ),
         (
             base.replace("preset = \"doors\"", "weights = { doors = 1.0 }"),
-            "bad TOML",
+            "TOML parse error at line",
         ),
         (
             base.replace("[5.0, 1.0], ", "[5.0, 1.0, 2.0], "),
@@ -147,9 +150,15 @@ fn bad_scenarios_name_the_field() {
             "path.waypoints: needs at least 2 waypoints (3 for a closed loop)",
         ),
         (base.replace("room.yaml", "missing.yaml"), "map: "),
-        (base.replace("[path]", "[path\n"), "bad TOML"),
-        (base.replace("map = ", "mapp = "), "bad TOML"),
-        (base.clone() + "speed = 3\n", "bad TOML"),
+        (
+            base.replace("[path]", "[path\n"),
+            "TOML parse error at line",
+        ),
+        (
+            base.replace("map = ", "mapp = "),
+            "TOML parse error at line",
+        ),
+        (base.clone() + "speed = 3\n", "TOML parse error at line"),
     ];
     for (i, (text, want)) in cases.iter().enumerate() {
         let p = write(tmp.path(), &format!("case{i}.toml"), text);

@@ -21,10 +21,12 @@ use anyhow::{Context, Result, ensure};
 /// The worst real tick's act, in instructions: issue 17's target.
 const WORST_TICK_BUDGET: u64 = 50_000;
 
-/// What this test enforces until the target is met: the measured worst (72 306 instructions when
-/// the evaluator's first rewrite landed) and a little margin, so that a regression fails here.
-/// Issue 17 stays open while this is above [`WORST_TICK_BUDGET`]; lower it to that when met.
-const WORST_TICK_GUARD: u64 = 75_000;
+/// What this test enforces until the target is met: the measured worst and a little margin, so
+/// that a regression fails here. 72 306 instructions when the evaluator's first rewrite landed;
+/// 90 090 once protocol version 3 quantized the observations, which changed the states the
+/// recorded runs visit (the synthetic scenes moved by under 0.1%). Issue 17 stays open while this
+/// is above [`WORST_TICK_BUDGET`]; lower it to that when met.
+const WORST_TICK_GUARD: u64 = 95_000;
 
 /// Runs `scripts/measure-firmware --summary` and reads its `key=value` lines.
 fn measure() -> Result<HashMap<String, u64>> {

@@ -41,12 +41,13 @@ use protocol::can::CanFrame;
 #[non_exhaustive]
 pub enum LinkError {
     /// The operating system refused (socket, device or file).
-    #[error("{context}: {source}")]
+    #[error("{context}: {error}")]
     Io {
         /// What was being done.
         context: String,
-        /// What the OS said.
-        source: std::io::Error,
+        /// What the OS said (in the message, so not a `source`: a chain of causes prints it
+        /// once).
+        error: std::io::Error,
     },
     /// The peer sent bytes that are not a valid packet or line of the transport's format.
     #[error("malformed {format} input: {detail}")]
@@ -70,10 +71,10 @@ pub enum LinkError {
 }
 
 impl LinkError {
-    pub(crate) fn io(context: impl Into<String>, source: std::io::Error) -> Self {
+    pub(crate) fn io(context: impl Into<String>, error: std::io::Error) -> Self {
         LinkError::Io {
             context: context.into(),
-            source,
+            error,
         }
     }
 

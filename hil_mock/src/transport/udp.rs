@@ -15,7 +15,9 @@
 //! bit 29 = error frame), `len` (the payload length; bit 7 set marks a CAN FD frame, which is then
 //! followed by a `flags` byte: 0x01 bit-rate switch, 0x04 FD frame), and the payload.
 //!
-//! This link sends one frame per packet (no batching delay). Remote and error frames received are
+//! This link sends one frame per packet (no batching delay), and takes a packet the moment it
+//! arrives: its socket never blocks, and `recv` waits for the next datagram in `poll(2)` with the
+//! time left (a timeout ends on the kernel's high-resolution timer, within its 50 µs slack). Remote and error frames received are
 //! skipped; a packet that is truncated or inconsistent is reported as malformed and dropped whole.
 //!
 //! **Whom a listening link answers.** Anyone on 127.0.0.1 can send it a datagram. A listening
@@ -149,11 +151,32 @@ pub fn decode_packet(bytes: &[u8], out: &mut Vec<CanFrame>) -> Result<u8, LinkEr
     Ok(seq)
 }
 
-/// Waits up to this long are polled (see `recv`).
-const SHORT_WAIT: Duration = Duration::from_millis(25);
+/// Waits for `socket` to hold a datagram (or an error), at most `timeout`: `poll(2)` on the
+/// socket, which the kernel ends as soon as a datagram arrives, or on its high-resolution timer
+/// when the time is up (a socket's receive timeout would be rounded up to the scheduler's tick,
+/// 4–8 ms here, and short naps between non-blocking reads add their own length to every
+/// answer). An interrupted wait returns early; the caller reads and waits again.
+#[cfg(unix)]
+fn wait_readable(socket: &UdpSocket, timeout: Duration) -> Result<(), LinkError> {
+    use rustix::event::{PollFd, PollFlags, Timespec, poll};
+    let mut fds = [PollFd::new(socket, PollFlags::IN)];
+    // A wait too long for a timespec is as good as forever.
+    let limit = Timespec::try_from(timeout).unwrap_or(Timespec {
+        tv_sec: i64::MAX,
+        tv_nsec: 0,
+    });
+    match poll(&mut fds, Some(&limit)) {
+        Ok(_) | Err(rustix::io::Errno::INTR) => Ok(()),
+        Err(e) => Err(LinkError::io("udp wait", e.into())),
+    }
+}
 
-/// Pause between two polls of a short wait.
-const NAP: Duration = Duration::from_micros(50);
+/// Elsewhere: short naps between non-blocking reads.
+#[cfg(not(unix))]
+fn wait_readable(_socket: &UdpSocket, timeout: Duration) -> Result<(), LinkError> {
+    std::thread::sleep(timeout.min(Duration::from_micros(50)));
+    Ok(())
+}
 
 /// A cannelloni UDP link on 127.0.0.1.
 #[derive(Debug)]
@@ -173,7 +196,12 @@ pub struct UdpLink {
     last_from: Option<SocketAddr>,
     /// Frames not sent because no authenticated peer has spoken yet (listening).
     unanswered: u64,
+    /// The datagram received last.
     buf: Vec<u8>,
+    /// The packet being sent.
+    out: Vec<u8>,
+    /// The frames of the packet received last.
+    decoded: Vec<CanFrame>,
 }
 
 impl UdpLink {
@@ -184,18 +212,26 @@ impl UdpLink {
         socket
             .connect(remote)
             .map_err(|e| LinkError::io(format!("connect to {remote}"), e))?;
-        Ok(Self::new(socket, Some(SocketAddr::V4(remote)), true))
+        Self::new(socket, Some(SocketAddr::V4(remote)), true)
     }
 
     /// Binds `local` (on 127.0.0.1) and answers the sender of the last authenticated message.
     pub fn listen(local: SocketAddrV4) -> Result<Self, LinkError> {
         let socket =
             UdpSocket::bind(local).map_err(|e| LinkError::io(format!("bind {local}"), e))?;
-        Ok(Self::new(socket, None, false))
+        Self::new(socket, None, false)
     }
 
-    fn new(socket: UdpSocket, peer: Option<SocketAddr>, connected: bool) -> Self {
-        Self {
+    /// The socket never blocks: `recv` reads what is there and waits in [`wait_readable`].
+    fn new(
+        socket: UdpSocket,
+        peer: Option<SocketAddr>,
+        connected: bool,
+    ) -> Result<Self, LinkError> {
+        socket
+            .set_nonblocking(true)
+            .map_err(|e| LinkError::io("udp nonblocking", e))?;
+        Ok(Self {
             socket,
             peer,
             connected,
@@ -205,7 +241,9 @@ impl UdpLink {
             last_from: None,
             unanswered: 0,
             buf: vec![0; MAX_DATAGRAM],
-        }
+            out: Vec::with_capacity(HEADER_LEN + 6 + 64),
+            decoded: Vec::new(),
+        })
     }
 
     /// The address answers go to (listening: the sender of the last authenticated message).
@@ -227,46 +265,34 @@ impl UdpLink {
 }
 
 impl Link for UdpLink {
+    /// Sends one packet. The socket does not block: a send buffer that is full (it never is on
+    /// loopback at these rates) loses the frame with an [`LinkError::Io`], which the protocol
+    /// recovers like any lost frame.
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
-        let mut packet = Vec::with_capacity(HEADER_LEN + 6 + frame.data().len());
-        encode_packet(self.seq, std::slice::from_ref(frame), &mut packet);
+        self.out.clear();
+        encode_packet(self.seq, std::slice::from_ref(frame), &mut self.out);
         self.seq = self.seq.wrapping_add(1);
         let result = if self.connected {
-            self.socket.send(&packet)
+            self.socket.send(&self.out)
         } else {
             let Some(peer) = self.answer_to.or(self.peer) else {
                 self.unanswered += 1;
                 return Ok(());
             };
-            self.socket.send_to(&packet, peer)
+            self.socket.send_to(&self.out, peer)
         };
         result.map(|_| ()).map_err(|e| LinkError::io("udp send", e))
     }
 
+    /// Returns a frame already received, else reads the socket, and while it is empty waits in
+    /// [`wait_readable`] for the time left: a datagram is taken the moment it arrives.
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         self.answer_to = None;
-        let deadline = Instant::now() + timeout;
+        let start = Instant::now();
         loop {
             if let Some((f, from)) = self.pending.pop_front() {
                 self.last_from = from;
                 return Ok(Some(f));
-            }
-            let left = deadline.saturating_duration_since(Instant::now());
-            // The kernel rounds a socket's receive timeout up to its timer tick (up to 10 ms),
-            // far beyond a short wait: a short wait polls without blocking and naps between
-            // polls instead; a long one blocks, ending a margin early, and polls the rest.
-            let blocking = left > SHORT_WAIT;
-            if blocking {
-                self.socket
-                    .set_nonblocking(false)
-                    .map_err(|e| LinkError::io("udp blocking", e))?;
-                self.socket
-                    .set_read_timeout(Some(left - SHORT_WAIT / 2))
-                    .map_err(|e| LinkError::io("udp timeout", e))?;
-            } else {
-                self.socket
-                    .set_nonblocking(true)
-                    .map_err(|e| LinkError::io("udp nonblocking", e))?;
             }
             let got = if self.connected {
                 self.socket.recv(&mut self.buf).map(|n| (n, None))
@@ -277,25 +303,21 @@ impl Link for UdpLink {
             };
             match got {
                 Ok((n, from)) => {
-                    let mut frames = Vec::new();
-                    decode_packet(&self.buf[..n], &mut frames)?;
-                    self.pending.extend(frames.into_iter().map(|f| (f, from)));
+                    self.decoded.clear();
+                    decode_packet(&self.buf[..n], &mut self.decoded)?;
+                    self.pending
+                        .extend(self.decoded.drain(..).map(|f| (f, from)));
                 }
-                Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) => {
-                    let now = Instant::now();
-                    if now >= deadline {
+                Err(e) if e.kind() == ErrorKind::WouldBlock => {
+                    let left = timeout.saturating_sub(start.elapsed());
+                    if left.is_zero() {
                         return Ok(None);
                     }
-                    if !blocking {
-                        std::thread::sleep(NAP.min(deadline - now));
-                    }
+                    wait_readable(&self.socket, left)?;
                 }
-                // A previous send to a closed port on loopback comes back as ECONNREFUSED.
-                Err(e) if e.kind() == ErrorKind::ConnectionRefused => {
-                    if Instant::now() >= deadline {
-                        return Ok(None);
-                    }
-                }
+                // A previous send to a closed port on loopback comes back as ECONNREFUSED (once;
+                // the next read goes on).
+                Err(e) if e.kind() == ErrorKind::ConnectionRefused => {}
                 Err(e) => return Err(LinkError::io("udp receive", e)),
             }
         }

@@ -83,17 +83,17 @@ pub(crate) fn run(args: &GenerateArgs) -> Result<()> {
     for (seed, w) in seeds.iter().zip(&worlds) {
         match w {
             Ok(world) => {
-                report(world, args.count == 1);
+                report(world, args.count == 1)?;
                 write(world, &args.out, args.picture.as_deref())?;
             }
             Err(e) => {
-                println!("seed {seed}: {e}");
+                outln!("seed {seed}: {e}")?;
                 failed.push(*seed);
             }
         }
     }
     if args.count > 1 {
-        print!("{}", survey(&worlds, elapsed.as_secs_f64()));
+        out!("{}", survey(&worlds, elapsed.as_secs_f64()))?;
     }
     match failed.len() {
         0 => Ok(()),
@@ -106,14 +106,14 @@ pub(crate) fn run(args: &GenerateArgs) -> Result<()> {
     }
 }
 
-fn report(world: &World, long: bool) {
+fn report(world: &World, long: bool) -> Result<()> {
     let s = &world.summary;
     if long {
         for r in &world.refused {
-            println!("attempt {} refused: {}", r.attempt, r.why);
+            outln!("attempt {} refused: {}", r.attempt, r.why)?;
         }
     }
-    println!(
+    outln!(
         "{} (seed {}, attempt {}): {} m × {} m, path {:.1} m; hallways {:?} m, {} open room(s), {} room(s) in the block; {} doors, {} staircases, {} chairs",
         world.options.name,
         world.options.seed,
@@ -127,15 +127,21 @@ fn report(world: &World, long: bool) {
         s.doors,
         s.stairs,
         s.chairs
-    );
+    )?;
     if long {
         for (lap, c) in world.laps.iter().zip(&world.contrasts) {
-            println!(
+            outln!(
                 "  {:<13} lap in {} ticks; its path follower ({}, {} ticks): another choice at {} ticks, over the threshold at {}",
-                c.teacher, lap.ticks, c.end, c.ticks, c.differs, c.over_threshold
-            );
+                c.teacher,
+                lap.ticks,
+                c.end,
+                c.ticks,
+                c.differs,
+                c.over_threshold
+            )?;
         }
     }
+    Ok(())
 }
 
 /// A picture of `scenario` (`world`, loaded from its files, so that the outside is grey): the
@@ -151,16 +157,16 @@ fn draw(world: &World, scenario: &Scenario) -> Raster {
 fn write(world: &World, out: &Path, picture: Option<&Path>) -> Result<()> {
     let toml = world.write(out)?;
     for (name, _) in world.files() {
-        println!("wrote {}", out.join(name).display());
+        outln!("wrote {}", out.join(name).display())?;
     }
     // What a user will load: the files just written.
-    let loaded = Scenario::load(&toml).with_context(|| format!("{}", toml.display()))?;
+    let loaded = Scenario::load(&toml)?;
     if let Some(dir) = picture {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("{}: cannot create", dir.display()))?;
         let png = dir.join(format!("{}.png", world.options.name));
         draw(world, &loaded).write_png(&png)?;
-        println!("wrote {}", png.display());
+        outln!("wrote {}", png.display())?;
     }
     Ok(())
 }

@@ -5,22 +5,27 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 
+use host_sim::checks;
+use host_sim::report::grid::{GRID_STEPS, TRIALS};
+
 use super::{prepare_out, progress_bar, worker_pool};
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct ReproduceArgs {
-    /// Trials per setting (trial t has seed SEED + t).
-    #[arg(long, default_value_t = 10)]
+    /// Trials per setting (trial t has seed SEED + t), 1 to 10 000.
+    #[arg(long, default_value_t = 10, allow_negative_numbers = true,
+          value_parser = checks::count_flag(TRIALS))]
     trials: u32,
-    /// Control ticks per trial.
-    #[arg(long, default_value_t = 5_000)]
+    /// Control ticks per trial, 10 to 10 000 000.
+    #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+          value_parser = checks::count_flag(GRID_STEPS))]
     steps: u32,
     /// Seed of trial 0.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads (default: one per core). The outputs do not depend on it.
-    #[arg(long)]
-    jobs: Option<usize>,
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::count_flag(super::JOBS))]
+    jobs: Option<u32>,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out/reproduce")]
     out: PathBuf,
@@ -28,27 +33,30 @@ pub(crate) struct ReproduceArgs {
     /// or a Kubernetes JOB_COMPLETION_INDEX) and write its raw results for `host-sim merge`.
     #[arg(long, value_name = "INDEX/COUNT")]
     shard: Option<host_sim::report::Shard>,
-    /// Multiply every teacher's weights by this factor (default 1: the calibrated teachers of
-    /// docs/reproduction/CALIBRATION.md).
-    #[arg(long, default_value_t = 1.0)]
-    teacher_scale: f32,
+    /// Multiply every teacher's weights by this factor, in (0, 1000] (default 1: the calibrated
+    /// teachers of docs/reproduction/CALIBRATION.md).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true,
+          value_parser = checks::flag(checks::teacher_scale))]
+    teacher_scale: f64,
 }
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct ScaleSweepArgs {
     /// Trials per setting (fewer than the report's 10 keeps the five grids quick; the output
-    /// says how many).
-    #[arg(long, default_value_t = 5)]
+    /// says how many), 1 to 10 000.
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true,
+          value_parser = checks::count_flag(TRIALS))]
     trials: u32,
-    /// Control ticks per trial.
-    #[arg(long, default_value_t = 5_000)]
+    /// Control ticks per trial, 10 to 10 000 000.
+    #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+          value_parser = checks::count_flag(GRID_STEPS))]
     steps: u32,
     /// Seed of trial 0.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Worker threads (default: one per core). The output does not depend on it.
-    #[arg(long)]
-    jobs: Option<usize>,
+    #[arg(long, allow_negative_numbers = true, value_parser = checks::count_flag(super::JOBS))]
+    jobs: Option<u32>,
     /// The Markdown file to write.
     #[arg(long, default_value = "out/SCALE_SWEEP.md")]
     out: PathBuf,
@@ -60,11 +68,11 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
         trials: args.trials,
         steps: args.steps,
         seed: args.seed,
-        teacher_scale: args.teacher_scale,
+        teacher_scale: args.teacher_scale as f32,
     };
     o.check()?;
     let shard = args.shard.unwrap_or(Shard::WHOLE);
-    prepare_out(&args.out)?;
+    let out_dir = prepare_out(&args.out)?;
     let pool = worker_pool(args.jobs)?;
     let jobs = report::jobs(&o, shard).len();
     let bar = progress_bar(
@@ -76,27 +84,29 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
     let results = pool.install(|| report::run_shard(&o, shard, &|| bar.inc(1)))?;
     bar.finish_and_clear();
     let ran = started.elapsed().as_secs_f64();
-    println!(
+    outln!(
         "ran {jobs} trials of {} steps on {} threads in {ran:.1} s",
         o.steps,
         pool.current_num_threads()
-    );
+    )?;
     if shard.count > 1 {
         report::write_shard(&args.out, &o, shard, &results)?;
-        println!(
+        out_dir.keep();
+        outln!(
             "wrote shard {}/{} into {}; combine every shard with `host-sim merge DIR... --out DIR`",
             shard.index,
             shard.count,
             args.out.display()
-        );
+        )?;
         return Ok(());
     }
     let report = report::finalize(&args.out, &o, &results)?;
-    print_outcome(&args.out, &report);
-    println!(
+    out_dir.keep();
+    print_outcome(&args.out, &report)?;
+    outln!(
         "wall time {:.1} s ({ran:.1} s of trials)",
         started.elapsed().as_secs_f64()
-    );
+    )?;
     Ok(())
 }
 
@@ -111,9 +121,10 @@ pub(crate) fn scale_sweep(args: &ScaleSweepArgs) -> Result<()> {
     };
     o.check()?;
     let pool = worker_pool(args.jobs)?;
-    if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
-        prepare_out(parent)?;
-    }
+    let out_dir = match args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        Some(parent) => Some(prepare_out(parent)?),
+        None => None,
+    };
     let jobs = report::jobs(&o, Shard::WHOLE).len() * SWEEP_FACTORS.len();
     let bar = progress_bar(
         jobs as u64,
@@ -125,41 +136,46 @@ pub(crate) fn scale_sweep(args: &ScaleSweepArgs) -> Result<()> {
     let text = report::scale_sweep_markdown(&o, &rows);
     std::fs::write(&args.out, &text)
         .with_context(|| format!("{}: cannot write", args.out.display()))?;
-    for line in text.lines().filter(|l| l.starts_with("| ")) {
-        println!("{line}");
+    if let Some(d) = out_dir {
+        d.keep();
     }
-    println!(
+    for line in text.lines().filter(|l| l.starts_with("| ")) {
+        outln!("{line}")?;
+    }
+    outln!(
         "wrote {} ({jobs} trials on {} threads in {:.1} s)",
         args.out.display(),
         pool.current_num_threads(),
         started.elapsed().as_secs_f64()
-    );
+    )?;
     Ok(())
 }
 
-pub(crate) fn print_outcome(out: &Path, report: &str) {
+pub(crate) fn print_outcome(out: &Path, report: &str) -> Result<()> {
     for line in report
         .lines()
         .filter(|l| l.starts_with("| ") && l.ends_with("hold** |") || l.ends_with("holds** |"))
     {
-        println!("{line}");
+        outln!("{line}")?;
     }
-    println!("report:  {}", out.join("REPORT.md").display());
-    println!("figures: {}", out.join("figures").display());
+    outln!("report:  {}", out.join("REPORT.md").display())?;
+    outln!("figures: {}", out.join("figures").display())?;
+    Ok(())
 }
 
 pub(crate) fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let started = Instant::now();
     let (o, results) = host_sim::report::read_shards(dirs)?;
-    prepare_out(out)?;
+    let out_dir = prepare_out(out)?;
     let report = host_sim::report::finalize(out, &o, &results)?;
-    println!(
+    out_dir.keep();
+    outln!(
         "merged {} shard folders ({} trials x {} steps) in {:.1} s",
         dirs.len(),
         o.trials,
         o.steps,
         started.elapsed().as_secs_f64()
-    );
-    print_outcome(out, &report);
+    )?;
+    print_outcome(out, &report)?;
     Ok(())
 }

@@ -411,7 +411,9 @@ pub struct Picture {
 }
 
 /// Lays `pictures` out `cols` per row with captions, a title and a legend line, into
-/// `stem.png`, and `stem.svg` (the same pictures embedded as PNG data, text as text).
+/// `stem.png`, and `stem.svg` (the same pictures embedded as PNG data, text as text). Each
+/// picture takes its own width (or its caption's, if wider) and the next follows it after a
+/// small gap, so pictures of different sizes sit side by side without blank columns.
 pub fn write_pictures(
     stem: &Path,
     title: &str,
@@ -423,10 +425,18 @@ pub fn write_pictures(
     const HEAD: usize = 56;
     const CAPTION: usize = 28;
     let cols = cols.max(1);
-    let cell_w = pictures.iter().map(|p| p.width).max().unwrap_or(1) + PAD;
-    let cell_h = pictures.iter().map(|p| p.height).max().unwrap_or(1) + CAPTION + PAD;
-    let rows = pictures.len().div_ceil(cols).max(1);
-    let (w, h) = (cols * cell_w + PAD, HEAD + rows * cell_h);
+    // Where each picture goes: rows of `cols`, each as tall as its tallest picture.
+    let mut at = Vec::with_capacity(pictures.len());
+    let (mut w, mut h) = (PAD, HEAD);
+    for row in pictures.chunks(cols) {
+        let mut x = PAD;
+        for p in row {
+            at.push((x, h));
+            x += p.width.max(8 * p.caption.chars().count()) + PAD;
+        }
+        w = w.max(x);
+        h += row.iter().map(|p| p.height).max().unwrap_or(1) + CAPTION + PAD;
+    }
     let mut canvas = PngCanvas::new(w as u32, h as u32);
     canvas.text(title, PAD as i32, 8, 2, [0, 0, 0]);
     canvas.text(legend, PAD as i32, 34, 1, [60, 60, 60]);
@@ -438,9 +448,7 @@ pub fn write_pictures(
         xml_escape(title),
         xml_escape(legend)
     );
-    for (k, p) in pictures.iter().enumerate() {
-        let x = PAD + (k % cols) * cell_w;
-        let y = HEAD + (k / cols) * cell_h;
+    for (p, &(x, y)) in pictures.iter().zip(&at) {
         canvas.blit(x as i32, y as i32, p.width, p.height, &p.rgb);
         canvas.text(
             &p.caption,
@@ -528,6 +536,32 @@ mod tests {
         assert_eq!(glyph('σ'), font8x8::legacy::GREEK_LEGACY[0x3c3 - 0x390]);
         assert_eq!(glyph('A'), font8x8::legacy::BASIC_LEGACY[65]);
         assert_eq!(glyph('€'), q);
+    }
+
+    /// Pictures of different widths sit side by side with one gap between them, not in
+    /// columns as wide as the widest.
+    #[test]
+    fn pictures_take_their_own_width() {
+        let dir = tempfile::tempdir().unwrap();
+        let pic = |width: usize, height: usize| Picture {
+            caption: "c".into(),
+            width,
+            height,
+            rgb: vec![0; width * height * 3],
+        };
+        let stem = dir.path().join("pics");
+        write_pictures(
+            &stem,
+            "t",
+            "l",
+            &[pic(100, 40), pic(300, 60), pic(50, 20)],
+            2,
+        )
+        .unwrap();
+        let png = std::fs::read(stem.with_extension("png")).unwrap();
+        let be = |i: usize| u32::from_be_bytes(png[i..i + 4].try_into().unwrap());
+        // Width: 10 + 100 + 10 + 300 + 10; height: 56 + (60 + 28 + 10) + (20 + 28 + 10).
+        assert_eq!((be(16), be(20)), (430, 212));
     }
 
     #[test]

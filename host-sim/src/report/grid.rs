@@ -4,7 +4,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::sync::Arc;
 
-use anyhow::{Context, Result, ensure};
+use anyhow::{Context, Result};
 use firmware_core::{LearnerParams, PAPER_STEP};
 use rayon::prelude::*;
 
@@ -35,6 +35,10 @@ pub const PAPER_THRESHOLDS: [f32; 5] = [0.0, 0.25, 0.5, 0.75, 1.0];
 pub const PATH_TICKS: u32 = 1_500;
 /// Largest number of trials per setting.
 pub const MAX_TRIALS: u32 = 10_000;
+/// The trials per setting a grid accepts (`--trials`).
+pub const TRIALS: std::ops::RangeInclusive<u32> = 1..=MAX_TRIALS;
+/// The steps per trial a grid accepts (`--steps`): at least ten, so that a tenth is a step.
+pub const GRID_STEPS: std::ops::RangeInclusive<u32> = 10..=MAX_STEPS;
 /// Version of the shard files.
 pub const SHARD_FORMAT: u32 = 2;
 /// The factors of the teachers' scale the scale sweep runs the claims at.
@@ -192,23 +196,11 @@ impl Options {
 
     /// Checks the numbers.
     pub fn check(&self) -> Result<()> {
-        ensure!(
-            self.teacher_scale.is_finite()
-                && self.teacher_scale > 0.0
-                && self.teacher_scale <= 1.0e3,
-            "--teacher-scale must be in (0, 1000], got {}",
-            self.teacher_scale
-        );
-        ensure!(
-            (1..=MAX_TRIALS).contains(&self.trials),
-            "--trials must be in 1..={MAX_TRIALS}, got {}",
-            self.trials
-        );
-        ensure!(
-            (10..=MAX_STEPS).contains(&self.steps),
-            "--steps must be in 10..={MAX_STEPS}, got {}",
-            self.steps
-        );
+        use crate::checks;
+        use crate::checks::named;
+        checks::teacher_scale(self.teacher_scale.into()).map_err(named("--teacher-scale"))?;
+        checks::count(self.trials.into(), TRIALS).map_err(named("--trials"))?;
+        checks::count(self.steps.into(), GRID_STEPS).map_err(named("--steps"))?;
         Ok(())
     }
 }

@@ -70,8 +70,11 @@
 //! * [`outputs`]: every file of a finished grid; [`sections`]: the report's text.
 //! * [`sweep`]: the claims at other scales of the teachers.
 //! * [`registry`]: the paper's experiments by name (`host-sim list`).
+//! * [`run_figure`]: the figure of one `host-sim run`; [`run_folder`]: a run's folder read back;
+//!   [`animation`]: a run as an animated picture (`host-sim draw --run DIR --animate FILE`).
 
 pub mod aggregate;
+pub mod animation;
 pub mod claims;
 pub mod figure;
 pub mod grid;
@@ -80,6 +83,8 @@ pub mod panels;
 pub mod paths;
 pub mod plot;
 pub mod registry;
+pub mod run_figure;
+pub mod run_folder;
 pub mod sections;
 pub mod shards;
 pub mod statistics;

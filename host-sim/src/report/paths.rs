@@ -56,10 +56,11 @@ pub fn learner_lap(
     let mut loss = 0.0f64;
     let mut acted = 0u32;
     let drive = check::drive_lap(scenario, max_ticks, |tick, obs| -> Result<_> {
-        let decision = link.act(tick, obs)?;
-        let j = judge
-            .judge(obs)
+        let checked = obs
+            .check()
             .map_err(|e| anyhow::anyhow!("tick {tick}: observation refused: {e}"))?;
+        let j = judge.judge_checked(checked);
+        let decision = link.act_evaluated(tick, obs, &j.evaluation)?;
         if let Some(a) = decision.action {
             loss += j.latent_loss(a) as f64;
             acted += 1;

@@ -5,7 +5,7 @@
 //!
 //! Cruise trajectories (actions 0–48, 1 m) are drawn in blue, creep trajectories (49–63,
 //! 0.5 m) in orange, from the rear axle at the origin, x forward (right in the picture), y left
-//! (up). The straight action 0 is drawn thicker.
+//! (up); a legend names the two. The straight action 0 is drawn thicker.
 
 use std::path::Path;
 
@@ -14,11 +14,11 @@ use firmware_core::ActionIndex;
 use firmware_core::lattice::{Family, trajectory};
 use plotters::prelude::*;
 
-/// Draws the lattice into the SVG file `out`.
+/// Draws the lattice into the SVG file `out`, with a legend of its two families.
 pub fn lattice_svg(out: &Path) -> Result<()> {
+    let e = |e: DrawingAreaErrorKind<std::io::Error>| anyhow!("{}: {e}", out.display());
     let root = SVGBackend::new(out, (800, 800)).into_drawing_area();
-    root.fill(&WHITE)
-        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    root.fill(&WHITE).map_err(e)?;
     let mut chart = ChartBuilder::on(&root)
         .caption(
             "firmware-core lattice: 64 trajectories (car frame)",
@@ -28,32 +28,73 @@ pub fn lattice_svg(out: &Path) -> Result<()> {
         .x_label_area_size(40)
         .y_label_area_size(50)
         .build_cartesian_2d(-0.1f64..1.1f64, -0.6f64..0.6f64)
-        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+        .map_err(e)?;
     chart
         .configure_mesh()
         .x_desc("x forward (m)")
         .y_desc("y left (m)")
+        .x_label_formatter(&axis_label)
+        .y_label_formatter(&axis_label)
         .draw()
-        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+        .map_err(e)?;
     let cruise = RGBColor(31, 119, 180);
     let creep = RGBColor(255, 127, 14);
-    for a in ActionIndex::all() {
-        let t = trajectory(a);
-        let mut pts = vec![(0.0, 0.0)];
-        pts.extend(t.poses.iter().map(|p| (p.x as f64, p.y as f64)));
-        let colour = if t.family == Family::Cruise {
+    for family in [Family::Cruise, Family::Creep] {
+        let colour = if family == Family::Cruise {
             cruise
         } else {
             creep
         };
-        let width = if a.get() == 0 { 3 } else { 1 };
-        chart
-            .draw_series(LineSeries::new(pts, colour.stroke_width(width)))
-            .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+        let actions: Vec<ActionIndex> = ActionIndex::all()
+            .filter(|&a| trajectory(a).family == family)
+            .collect();
+        for (k, &a) in actions.iter().enumerate() {
+            let t = trajectory(a);
+            let mut pts = vec![(0.0, 0.0)];
+            pts.extend(t.poses.iter().map(|p| (p.x as f64, p.y as f64)));
+            let width = if a.get() == 0 { 3 } else { 1 };
+            let series = chart
+                .draw_series(LineSeries::new(pts, colour.stroke_width(width)))
+                .map_err(e)?;
+            // One legend entry per family, with its actions, length and speed.
+            if k == 0 {
+                let (first, last) = (actions[0].get(), actions[actions.len() - 1].get());
+                let name = match family {
+                    Family::Cruise => "cruise",
+                    Family::Creep => "creep",
+                };
+                let which = if last - first + 1 == actions.len() {
+                    format!("actions {first}–{last}")
+                } else {
+                    format!("{} actions", actions.len())
+                };
+                series
+                    .label(format!(
+                        "{name}: {which}, {:.1} m at {:.1} m/s",
+                        t.length(),
+                        t.speed
+                    ))
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(3))
+                    });
+            }
+        }
     }
-    root.present()
-        .map_err(|e| anyhow!("{}: {e}", out.display()))?;
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.9))
+        .border_style(BLACK)
+        .draw()
+        .map_err(e)?;
+    root.present().map_err(e)?;
     Ok(())
+}
+
+/// An axis label with one decimal, and 0 for the values that round to it (never `-0.0`).
+fn axis_label(v: &f64) -> String {
+    let s = format!("{v:.1}");
+    if s == "-0.0" { "0.0".into() } else { s }
 }
 
 /// An RGB raster of a scenario's map with its path, objects and start, and optionally a driven
@@ -152,7 +193,8 @@ impl Raster {
         r
     }
 
-    fn to_px(&self, x: f64, y: f64) -> (i64, i64) {
+    /// The pixel (column, row from the top) of the world point `(x, y)`.
+    pub fn to_px(&self, x: f64, y: f64) -> (i64, i64) {
         // Map yaw is ignored in drawings (all shipped maps have yaw 0).
         let o = self.grid.origin();
         let res = self.grid.resolution() / self.scale as f64;
@@ -258,34 +300,4 @@ impl Raster {
             .map_err(|e| anyhow!("{}: {e}", out.display()))?;
         Ok(())
     }
-}
-
-/// Reads the `x`, `y` columns of a `steps.csv` written by `host-sim run`.
-pub fn read_trace(csv: &Path) -> Result<Vec<(f64, f64)>> {
-    let text = std::fs::read_to_string(csv).map_err(|e| anyhow!("{}: {e}", csv.display()))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines
-        .next()
-        .ok_or_else(|| anyhow!("{}: empty", csv.display()))?
-        .split(',')
-        .collect();
-    let col = |name: &str| {
-        header
-            .iter()
-            .position(|h| *h == name)
-            .ok_or_else(|| anyhow!("{}: no column {name:?}", csv.display()))
-    };
-    let (cx, cy) = (col("x")?, col("y")?);
-    let mut out = Vec::new();
-    for (i, line) in lines.enumerate() {
-        let f: Vec<&str> = line.split(',').collect();
-        let parse = |c: usize| -> Result<f64> {
-            f.get(c)
-                .and_then(|v| v.parse::<f64>().ok())
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| anyhow!("{}: line {}: bad number", csv.display(), i + 2))
-        };
-        out.push((parse(cx)?, parse(cy)?));
-    }
-    Ok(out)
 }

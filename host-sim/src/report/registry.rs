@@ -103,7 +103,7 @@ pub const EXPERIMENTS: &[Experiment] = &[
     },
     Experiment {
         name: "noise",
-        description: "action feedback on doors with teacher noise sigma 0 to 2",
+        description: "action feedback on doors with teacher noise σ 0 to 2",
         configs: noise,
     },
     Experiment {

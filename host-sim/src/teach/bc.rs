@@ -72,8 +72,8 @@ pub fn bc_samples(config: &RunConfig) -> Result<Vec<BcSample>> {
             samples.push(BcSample {
                 tick,
                 pose,
-                table: j.table,
-                mask: j.allowed,
+                table: j.table().clone(),
+                mask: j.allowed(),
                 label,
             });
         }

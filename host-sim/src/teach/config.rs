@@ -4,7 +4,7 @@
 use std::sync::Arc;
 
 use anyhow::{Result, ensure};
-use firmware_core::LearnerParams;
+use firmware_core::{LearnerParams, LearnerSnapshot};
 
 use crate::world::car::Pose;
 use crate::world::scenario::Scenario;
@@ -44,8 +44,7 @@ impl Mode {
     }
 }
 
-/// Largest number of steps of one run.
-pub const MAX_STEPS: u32 = 10_000_000;
+pub use crate::checks::MAX_STEPS;
 
 /// One run's configuration.
 #[derive(Clone, Debug)]
@@ -72,6 +71,9 @@ pub struct RunConfig {
     pub random_answers: Option<f32>,
     /// Multiplies the scenario teacher's weights (its scale; the reproduction's scale sweep).
     pub teacher_scale: Option<f32>,
+    /// Start from this learner, parameters and state (`run --load-learner`), instead of a fresh
+    /// one of `learner`; online modes only. Its parameters must be `learner`.
+    pub initial: Option<LearnerSnapshot>,
 }
 
 /// A small random offset of the start pose, drawn once per run from the run's seed, so that
@@ -144,6 +146,7 @@ impl RunConfig {
             statements: None,
             random_answers: None,
             teacher_scale: None,
+            initial: None,
         }
     }
 
@@ -176,35 +179,20 @@ impl RunConfig {
         t
     }
 
-    /// Checks the numbers.
+    /// Checks the numbers, with the checks (and the words) of [`crate::checks`] that the
+    /// command line and the scenario files use.
     pub fn check(&self) -> Result<()> {
-        ensure!(
-            self.steps > 0 && self.steps <= MAX_STEPS,
-            "steps must be in 1..={MAX_STEPS}, got {}",
-            self.steps
-        );
+        use crate::checks;
+        use crate::checks::named;
+        checks::steps(self.steps.into()).map_err(named("steps"))?;
         let t = self.teacher();
-        ensure!(
-            t.threshold.is_finite() && t.threshold >= 0.0,
-            "threshold must be finite and >= 0, got {}",
-            t.threshold
-        );
-        ensure!(
-            t.noise.is_finite() && t.noise >= 0.0,
-            "noise must be finite and >= 0, got {}",
-            t.noise
-        );
+        checks::threshold(t.threshold.into()).map_err(named("threshold"))?;
+        checks::noise(t.noise.into()).map_err(named("noise"))?;
         if let Some(f) = self.teacher_scale {
-            ensure!(
-                f.is_finite() && f > 0.0 && f <= 1.0e3,
-                "the teacher's scale factor must be in (0, 1000], got {f}"
-            );
+            checks::teacher_scale(f.into()).map_err(named("the teacher's scale"))?;
         }
-        ensure!(
-            (0.0..=1.0).contains(&t.random_answers),
-            "the probability of a random answer must be in [0, 1], got {}",
-            t.random_answers
-        );
+        checks::probability(t.random_answers.into())
+            .map_err(named("the probability of a random answer"))?;
         if let Some(j) = self.start_jitter {
             ensure!(
                 j.lateral.is_finite()
@@ -214,9 +202,23 @@ impl RunConfig {
                 "start jitter must be finite and >= 0, got {j:?}"
             );
         }
+        checks::step_size(self.learner.step.into()).map_err(named("step size"))?;
         self.learner
             .check()
             .map_err(|e| anyhow::anyhow!("learner parameters: {e}"))?;
+        if let Some(s) = &self.initial {
+            ensure!(
+                matches!(self.mode, Mode::Online(_)),
+                "a loaded learner is taught online (action, preference or semantic feedback), not {}",
+                self.mode.name()
+            );
+            ensure!(
+                s.params == self.learner,
+                "the loaded learner's parameters differ from the run's learner"
+            );
+            firmware_core::Learner::restore(s)
+                .map_err(|e| anyhow::anyhow!("the loaded learner: {e}"))?;
+        }
         Ok(())
     }
 }

@@ -3,11 +3,14 @@
 //!
 //! # One step (one control tick)
 //!
-//! 1. The world is sensed into an [`Observation`] (see [`crate::world::sim`]).
-//! 2. The learner acts on it through the link: `link.act(tick, &obs)`.
-//! 3. The teacher judges the same observation with the same evaluator; the **latent loss** of the
-//!    learner's action is recorded. If the perceived loss exceeds the threshold and the run
-//!    learns online, the teacher's feedback goes to the learner: `link.feedback(tick, &fb)`.
+//! 1. The world is sensed into an [`Observation`] (see [`crate::world::sim`]), checked once and
+//!    evaluated once, with the evaluator the car runs.
+//! 2. The teacher judges that evaluation ([`Teacher::judge_checked`]).
+//! 3. The learner acts through the link: `link.act_evaluated(tick, &obs, &evaluation)`; a learner
+//!    in this process acts on the teacher's evaluation ([`Agent::act_evaluated`]), one on the
+//!    car gets the observation and evaluates it itself. The **latent loss** of the learner's
+//!    action is recorded. If the perceived loss exceeds the threshold and the run learns online,
+//!    the teacher's feedback goes to the learner: `link.feedback(tick, &fb)`.
 //! 4. The car tracks the learner's trajectory for one tick; collisions, stuck and lost cars are
 //!    put back at the start, keeping the learner.
 //!
@@ -45,6 +48,7 @@
 
 use anyhow::{Result, bail};
 use firmware_core::agent::{Agent, Decision};
+use firmware_core::evaluator::Evaluation;
 use firmware_core::observation::Observation;
 use firmware_core::{Feedback, Learner, LearnerParams, LearnerSnapshot, Weights};
 
@@ -64,6 +68,19 @@ pub trait CarLink {
     fn restore(&mut self, snapshot: &LearnerSnapshot) -> Result<()>;
     /// Evaluates the observation and chooses an action for `tick`.
     fn act(&mut self, tick: u32, obs: &Observation) -> Result<Decision>;
+    /// [`CarLink::act`] on an observation the host has evaluated already (`evaluation`, made
+    /// from `obs` by the evaluator the car runs): a learner in this process acts on it
+    /// ([`Agent::act_evaluated`]) instead of evaluating the observation a second time. By
+    /// default, and for a learner elsewhere, `act(tick, obs)`: the car evaluates on its own.
+    fn act_evaluated(
+        &mut self,
+        tick: u32,
+        obs: &Observation,
+        evaluation: &Evaluation,
+    ) -> Result<Decision> {
+        let _ = evaluation;
+        self.act(tick, obs)
+    }
     /// Learns from feedback about a recent `tick`.
     fn feedback(&mut self, tick: u32, feedback: &Feedback) -> Result<()>;
     /// The learner's current parameters and state.
@@ -105,6 +122,20 @@ impl CarLink for InProcessLink {
             .map_err(|e| anyhow::anyhow!("tick {tick}: observation refused: {e}"))
     }
 
+    fn act_evaluated(
+        &mut self,
+        tick: u32,
+        obs: &Observation,
+        evaluation: &Evaluation,
+    ) -> Result<Decision> {
+        debug_assert_eq!(
+            evaluation.reference(),
+            obs.reference,
+            "another observation's"
+        );
+        Ok(self.agent.act_evaluated(tick, evaluation))
+    }
+
     fn feedback(&mut self, tick: u32, feedback: &Feedback) -> Result<()> {
         self.agent
             .feedback(tick, feedback)
@@ -135,7 +166,10 @@ pub fn run_with(
     config.check()?;
     let spec = config.teacher();
     let (initial, bc) = match config.mode {
-        Mode::Online(_) => (learner_with(config.learner, config.learner.initial)?, None),
+        Mode::Online(_) => match config.initial {
+            Some(snapshot) => (snapshot, None),
+            None => (learner_with(config.learner, config.learner.initial)?, None),
+        },
         Mode::Teacher => (learner_with(config.learner, spec.weights)?, None),
         Mode::BehaviourCloning => {
             let (snap, fit) = behaviour_cloning(config)?;
@@ -151,11 +185,12 @@ pub fn run_with(
     for step in 0..config.steps {
         let obs = episode.observe();
         let pose = episode.car().pose;
-        let decision = link.act(step, &obs)?;
-        let j = teacher
-            .judge(&obs)
-            .map_err(|e| anyhow::anyhow!("step {step}: teacher: observation refused: {e}"))?;
-        if decision.allowed != j.allowed {
+        let checked = obs
+            .check()
+            .map_err(|e| anyhow::anyhow!("step {step}: observation refused: {e}"))?;
+        let j = teacher.judge_checked(checked);
+        let decision = link.act_evaluated(step, &obs, &j.evaluation)?;
+        if decision.allowed != j.allowed() {
             bail!("step {step}: the learner's and the teacher's collision masks differ");
         }
         let mut corrected = false;

@@ -32,7 +32,7 @@
 use std::fmt::Write as _;
 use std::sync::Arc;
 
-use anyhow::{Context, Result, ensure};
+use anyhow::{Context, Result};
 use firmware_core::{LearnerKind, LearnerParams};
 use rayon::prelude::*;
 
@@ -127,19 +127,16 @@ pub fn cells() -> Vec<CellKey> {
     out
 }
 
+/// The seeds per cell the table accepts (`--seeds`).
+pub const SEEDS: std::ops::RangeInclusive<u32> = 1..=100;
+/// The steps per run the table accepts (`--steps`).
+pub const STEPS: std::ops::RangeInclusive<u32> = 10..=experiment::MAX_STEPS;
+
 /// Runs the table on the current rayon pool; `done` is called after each run.
 pub fn run_table(o: &Options, done: &(dyn Fn() + Sync)) -> Result<Vec<Cell>> {
-    ensure!(
-        (1..=100).contains(&o.seeds),
-        "--seeds must be in 1..=100, got {}",
-        o.seeds
-    );
-    ensure!(
-        (10..=experiment::MAX_STEPS).contains(&o.steps),
-        "--steps must be in 10..={}, got {}",
-        experiment::MAX_STEPS,
-        o.steps
-    );
+    use crate::checks::named;
+    crate::checks::count(o.seeds.into(), SEEDS).map_err(named("--seeds"))?;
+    crate::checks::count(o.steps.into(), STEPS).map_err(named("--steps"))?;
     let mut worlds = std::collections::BTreeMap::new();
     for w in WORLDS {
         worlds.insert(w, Arc::new(registry::load_scenario(w)?));

@@ -5,6 +5,8 @@
 //! * [`experiment`]: the run loop behind the [`experiment::CarLink`] trait, parallel runs.
 //! * [`bc`]: behaviour cloning, the paper's baseline.
 //! * [`record`]: what a run records: per-step records, CSV, summary, task success.
+//! * [`learner_file`]: the learner file of `run --save-learner` and `--load-learner`: the
+//!   versioned snapshot the car persists.
 //! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
 //!   controller (`hil_mock`, the firmware) over a CAN link.
 //! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
@@ -17,6 +19,7 @@ pub mod bc;
 pub mod calibrate;
 pub mod config;
 pub mod experiment;
+pub mod learner_file;
 pub mod learners;
 pub mod record;
 pub mod remote;

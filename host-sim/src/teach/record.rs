@@ -3,7 +3,7 @@
 
 use std::io::Write;
 
-use firmware_core::{ActionIndex, LearnerParams, LearnerSnapshot};
+use firmware_core::{ActionIndex, Feature, LearnerParams, LearnerSnapshot, Weights};
 
 use super::bc::BcFit;
 use super::config::Mode;
@@ -165,13 +165,13 @@ impl RunReport {
                 "statements": t.statements.name(),
                 "random_answers": t.random_answers,
                 "teacher_preset": t.preset,
-                "teacher_weights": t.weights,
+                "teacher_weights": weights_by_name(&t.weights),
                 "learner": self.learner.kind.name(),
                 "step_size": self.learner.step,
             },
             "seed": self.seed,
-            "final_weights": s.state.average,
-            "final_iterate": s.state.iterate,
+            "final_weights": weights_by_name(&s.state.average),
+            "final_iterate": weights_by_name(&s.state.iterate),
             "learner_steps": s.state.steps,
             "totals": {
                 "corrections": self.corrections(),
@@ -198,10 +198,30 @@ impl RunReport {
                 "ticks": b.ticks,
                 "epochs": b.epochs,
                 "converged": b.converged,
-                "weights": b.weights,
+                "weights": weights_by_name(&b.weights),
             })),
         })
     }
+}
+
+/// Weights by feature name, as `summary.json` holds them: `{"obstacles": 0.2, "door": 0.0, …}`.
+pub fn weights_by_name(w: &Weights) -> serde_json::Value {
+    Feature::ALL
+        .iter()
+        .map(|f| (f.name().to_string(), serde_json::json!(w[f.index()])))
+        .collect::<serde_json::Map<_, _>>()
+        .into()
+}
+
+/// Weights by feature name, in the features' order, as `run` prints them: "obstacles 0.2,
+/// door 0, stairs 0, chair 0.06, path -0.32, right 0.018" (each number the shortest that reads
+/// back as the same `f32`).
+pub fn describe_weights(w: &Weights) -> String {
+    Feature::ALL
+        .iter()
+        .map(|f| format!("{} {}", f.name(), w[f.index()]))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// The names of the reset causes, in the order of [`RunReport::resets`].
@@ -260,6 +280,19 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn weights_are_named_by_their_feature() {
+        let w = [0.5, 0.0, -1.25, 2.0, -0.125, 1.0e-3];
+        assert_eq!(
+            describe_weights(&w),
+            "obstacles 0.5, door 0, stairs -1.25, chair 2, path -0.125, right 0.001"
+        );
+        let j = weights_by_name(&w);
+        assert_eq!(j["stairs"], -1.25);
+        assert_eq!(j["right"], 1.0e-3f32 as f64);
+        assert_eq!(j.as_object().unwrap().len(), 6);
+    }
 
     #[test]
     fn fnv1a_matches_the_reference_vectors() {

@@ -74,20 +74,14 @@ impl SyntheticReport {
 
 /// Runs the stream.
 pub fn run(config: &SyntheticConfig) -> Result<SyntheticReport> {
-    ensure!(
-        (0.0..=1.0).contains(&config.noise),
-        "noise must be a probability, got {}",
-        config.noise
-    );
+    crate::checks::probability(config.noise).map_err(|m| anyhow::anyhow!("noise: {m}"))?;
     ensure!(
         (0.0..1.0).contains(&config.forbidden),
         "forbidden must be in [0, 1), got {}",
         config.forbidden
     );
-    ensure!(
-        config.threshold.is_finite() && config.threshold >= 0.0,
-        "threshold must be finite and >= 0"
-    );
+    crate::checks::threshold(config.threshold.into())
+        .map_err(|m| anyhow::anyhow!("threshold: {m}"))?;
     let params = config
         .learner
         .check()

@@ -56,6 +56,7 @@ use firmware_core::{FEATURE_COUNT, Feature, Weights};
 use serde::Deserialize;
 use thiserror::Error;
 
+use crate::checks;
 use crate::world::car::{CarParams, Pose};
 use crate::world::map::{MapError, OccupancyGrid};
 use crate::world::path::RefPath;
@@ -66,19 +67,21 @@ use crate::world::teacher::{self, TeacherSpec};
 #[non_exhaustive]
 pub enum ScenarioError {
     /// The file could not be read.
-    #[error("{path}: cannot read: {source}")]
+    #[error("{path}: cannot read: {error}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The I/O error.
-        source: std::io::Error,
+        /// The I/O error (in the message, so not a `source`: a chain of causes prints it once).
+        error: std::io::Error,
     },
     /// The TOML does not parse or has the wrong shape.
-    #[error("{path}: bad TOML: {message}")]
+    #[error("{path}: {message}")]
     Toml {
         /// The file.
         path: PathBuf,
-        /// What the parser said.
+        /// What the parser said, in its own layout: "TOML parse error at line 18, column 13",
+        /// then the line with a caret under the column, then what is wrong, on lines of their
+        /// own.
         message: String,
     },
     /// A field has a bad value.
@@ -92,12 +95,12 @@ pub enum ScenarioError {
         problem: String,
     },
     /// The map could not be loaded.
-    #[error("{path}: map: {source}")]
+    #[error("{path}: map: {error}")]
     Map {
         /// The scenario file.
         path: PathBuf,
-        /// The map's error.
-        source: MapError,
+        /// The map's error (in the message, so not a `source`).
+        error: MapError,
     },
 }
 
@@ -273,9 +276,9 @@ pub const COORDINATE_BOUND: f64 = 1.0e5;
 impl Scenario {
     /// Loads and validates the scenario file at `path`, and its map.
     pub fn load(path: &Path) -> Result<Self, ScenarioError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| ScenarioError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         Self::parse(&text, path)
     }
@@ -284,7 +287,7 @@ impl Scenario {
     pub fn parse(text: &str, path: &Path) -> Result<Self, ScenarioError> {
         let raw: RawScenario = toml::from_str(text).map_err(|e| ScenarioError::Toml {
             path: path.to_path_buf(),
-            message: e.to_string().trim_end().replace('\n', " | "),
+            message: e.to_string().trim_end().to_string(),
         })?;
         let name = match raw.name {
             Some(n) if n.trim().is_empty() => return Err(err(path, "name", "must not be empty")),
@@ -298,9 +301,9 @@ impl Scenario {
             return Err(err(path, "map", "must name a map_server YAML file"));
         }
         let map_path = path.parent().unwrap_or(Path::new("")).join(&raw.map);
-        let map = OccupancyGrid::load(&map_path).map_err(|source| ScenarioError::Map {
+        let map = OccupancyGrid::load(&map_path).map_err(|error| ScenarioError::Map {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
 
         let mut points = Vec::with_capacity(raw.path.waypoints.len());
@@ -472,7 +475,8 @@ fn parse_teacher(raw: Option<RawTeacher>, path: &Path) -> Result<TeacherSpec, Sc
             for (f, v) in given {
                 if let Some(v) = v {
                     let field = format!("teacher.weights.{}", f.name());
-                    weights[f.index()] = finite(path, field, v, 1.0e3)? as f32;
+                    weights[f.index()] =
+                        checks::teacher_weight(v).map_err(|m| err(path, field, m))? as f32;
                 }
             }
             if weights.iter().all(|&x| x == 0.0) {
@@ -481,25 +485,13 @@ fn parse_teacher(raw: Option<RawTeacher>, path: &Path) -> Result<TeacherSpec, Sc
             TeacherSpec::with_weights(None, weights)
         }
     };
+    // The same checks, in the same words, as the command line's --threshold and --noise.
     if let Some(t) = raw.threshold {
-        if !(t.is_finite() && (0.0..=1.0e3).contains(&t)) {
-            return Err(err(
-                path,
-                "teacher.threshold",
-                format!("must be in [0, 1000], got {t}"),
-            ));
-        }
-        spec.threshold = t as f32;
+        spec.threshold =
+            checks::threshold(t).map_err(|m| err(path, "teacher.threshold", m))? as f32;
     }
     if let Some(s) = raw.noise {
-        if !(s.is_finite() && (0.0..=1.0e3).contains(&s)) {
-            return Err(err(
-                path,
-                "teacher.noise",
-                format!("must be in [0, 1000], got {s}"),
-            ));
-        }
-        spec.noise = s as f32;
+        spec.noise = checks::noise(s).map_err(|m| err(path, "teacher.noise", m))? as f32;
     }
     Ok(spec)
 }

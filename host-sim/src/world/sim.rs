@@ -37,7 +37,7 @@
 //! The projection onto the path searches only 1 m behind to 2 m ahead of the previous one, so it
 //! cannot jump to a neighbouring hallway.
 
-use std::sync::Arc;
+use std::sync::{Arc, LazyLock};
 
 use firmware_core::ActionIndex;
 use firmware_core::lattice::trajectory;
@@ -292,6 +292,14 @@ impl Episode {
     }
 }
 
+/// `(cos, sin)` of every beam's bearing ([`beam_bearing`]).
+static BEAM_DIRECTIONS: LazyLock<[(f64, f64); SCAN_BEAMS]> = LazyLock::new(|| {
+    std::array::from_fn(|j| {
+        let b = beam_bearing(j) as f64;
+        (libm::cos(b), libm::sin(b))
+    })
+});
+
 /// The observation of a car in `scenario` whose projection onto the path is at arc length `s`,
 /// quantized to the protocol's wire steps (`protocol::quantize::quantize`: ranges in
 /// centimetres, lengths in millimetres, the heading in 10⁻⁴ rad), so that the learner and the
@@ -300,9 +308,11 @@ pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
     let pose = car.pose;
     let map = &scenario.map;
     let mut scan = Scan::EMPTY;
-    for j in 0..SCAN_BEAMS {
-        let a = pose.theta + beam_bearing(j) as f64;
-        let r = map.raycast(pose.x, pose.y, a, SCAN_MAX_RANGE as f64);
+    // Each beam's direction: its unit vector in the car frame turned by the heading.
+    let (sin, cos) = (libm::sin(pose.theta), libm::cos(pose.theta));
+    for (j, &(bc, bs)) in BEAM_DIRECTIONS.iter().enumerate() {
+        let along = (cos * bc - sin * bs, sin * bc + cos * bs);
+        let r = map.raycast_along(pose.x, pose.y, along, SCAN_MAX_RANGE as f64);
         scan.ranges[j] = (r as f32).min(SCAN_MAX_RANGE);
     }
     let objects = detect(scenario, pose);

@@ -2,7 +2,12 @@
 //! feedback they give.
 //!
 //! A teacher looks at the same [`Observation`] the car does and runs the **same**
-//! [`Evaluator`] (features are never recomputed on the host). Its latent loss of action `a` is
+//! [`Evaluator`] (features are never recomputed on the host). In process the learner and the
+//! teacher share **one** evaluation of each observation: the teacher evaluates and judges it
+//! ([`Teacher::judge_checked`]) and the learner acts on the same evaluation
+//! ([`firmware_core::agent::Agent::act_evaluated`], through
+//! [`crate::teach::experiment::CarLink::act_evaluated`]); a learner on the car evaluates the
+//! observation it receives on its own. Its latent loss of action `a` is
 //! `L(a) = w*·(φ(a*) − φ(a)) ≥ 0`, `a* = argmax` over the allowed actions of `w*·φ` (ties to the
 //! lowest index, as the car's policy).
 //!
@@ -95,11 +100,11 @@
 //!
 //! The scenario of the MIT basement uses the `doors` preset.
 
-use firmware_core::evaluator::{Evaluator, cross_track_errors};
-use firmware_core::observation::{Observation, ObservationError};
+use firmware_core::evaluator::{Evaluation, Evaluator, cross_track_errors};
+use firmware_core::observation::{Observation, ObservationError, ValidObservation};
 use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, Feature, FeatureTable, Feedback, MAX_ACTIONS,
-    Polarity, PreferenceFeedback, SemanticFeedback, Statement, Weights, dot, policy,
+    Polarity, PreferenceFeedback, SemanticFeedback, Statement, Weights, policy,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -321,10 +326,9 @@ impl FeedbackKind {
 /// The teacher's view of one tick.
 #[derive(Clone, Debug)]
 pub struct Judgement {
-    /// Features of every action (the same evaluator the car runs).
-    pub table: FeatureTable,
-    /// Actions that do not collide.
-    pub allowed: ActionMask,
+    /// The observation evaluated: features of every action (the same evaluator the car runs)
+    /// and the actions that do not collide.
+    pub evaluation: Evaluation,
     /// The teacher's true best action `a*` (None when nothing is allowed).
     pub best: Option<ActionIndex>,
     /// True latent loss of every allowed action (0 for forbidden ones).
@@ -339,6 +343,16 @@ pub struct Judgement {
 }
 
 impl Judgement {
+    /// Features of every action.
+    pub fn table(&self) -> &FeatureTable {
+        self.evaluation.table()
+    }
+
+    /// Actions that do not collide.
+    pub fn allowed(&self) -> ActionMask {
+        self.evaluation.allowed()
+    }
+
     /// True latent loss of `a`.
     pub fn latent_loss(&self, a: ActionIndex) -> f32 {
         self.latent[a.get()]
@@ -368,19 +382,41 @@ impl Teacher {
         &self.spec
     }
 
-    /// Evaluates `obs` and perceives the latent loss of every action.
+    /// Checks `obs`, then [`Teacher::judge_checked`].
     pub fn judge(&mut self, obs: &Observation) -> Result<Judgement, ObservationError> {
-        let mut table = FeatureTable::ZERO;
-        let allowed = self.evaluator.evaluate(obs.check()?, &mut table);
-        let w = &self.spec.weights;
-        let best = policy::select(w, &table, allowed);
+        Ok(self.judge_checked(obs.check()?))
+    }
+
+    /// Evaluates `obs` with the teacher's evaluator (the car's) and perceives the latent loss
+    /// of every action. The judgement carries the evaluation, which an in-process learner acts
+    /// on instead of evaluating the observation again.
+    pub fn judge_checked(&mut self, obs: ValidObservation<'_>) -> Judgement {
+        let evaluation = self.evaluator.evaluation(obs);
+        self.judge_evaluation(evaluation)
+    }
+
+    /// Perceives the latent loss of every action of an observation evaluated already (by any
+    /// [`Evaluator`]: the same code, so the same bits; another teacher's judgement of the same
+    /// observation, for example).
+    pub fn judge_evaluation(&mut self, evaluation: Evaluation) -> Judgement {
+        let table = evaluation.table();
+        let allowed = evaluation.allowed();
+        // Every score once: the best is `policy::select`'s (highest, lowest index on ties).
+        let mut score = [0.0f32; MAX_ACTIONS];
+        policy::scores(&self.spec.weights, table, allowed, &mut score);
+        let mut best: Option<ActionIndex> = None;
+        for a in allowed {
+            if !best.is_some_and(|b| score[a.get()] <= score[b.get()]) {
+                best = Some(a);
+            }
+        }
         let mut latent = [0.0f32; MAX_ACTIONS];
         let mut perceived = [0.0f32; MAX_ACTIONS];
         let mut choice: Option<(ActionIndex, f32)> = None;
         if let Some(b) = best {
-            let top = dot(w, &table[b]);
+            let top = score[b.get()];
             for a in allowed {
-                let l = top - dot(w, &table[a]);
+                let l = top - score[a.get()];
                 latent[a.get()] = l;
                 let noise = if self.spec.noise > 0.0 {
                     let n: f32 = StandardNormal.sample(&mut self.rng);
@@ -396,15 +432,15 @@ impl Teacher {
                 }
             }
         }
-        Ok(Judgement {
-            table,
-            allowed,
+        let cross = cross_track_errors(&evaluation.reference());
+        Judgement {
+            evaluation,
             best,
             latent,
             perceived,
             choice: choice.map(|(a, _)| a),
-            cross: cross_track_errors(&obs.reference),
-        })
+            cross,
+        }
     }
 
     /// Whether the teacher corrects the learner's action `chosen`.
@@ -431,9 +467,10 @@ impl Teacher {
             match kind {
                 FeedbackKind::Preference => coin = Some(self.rng.random::<bool>()),
                 _ => {
-                    let n = j.allowed.count();
+                    let allowed = j.allowed();
+                    let n = allowed.count();
                     let k = self.rng.random_range(0..n) as usize;
-                    choice = j.allowed.iter().nth(k)?;
+                    choice = allowed.iter().nth(k)?;
                 }
             }
         }
@@ -442,7 +479,7 @@ impl Teacher {
                 (choice != chosen).then_some(Feedback::Action(ActionFeedback { action: choice }))
             }
             FeedbackKind::Preference => {
-                let mut others = j.allowed;
+                let mut others = j.allowed();
                 others.remove(chosen);
                 let n = others.count();
                 if n == 0 {
@@ -506,7 +543,7 @@ pub fn statement_quantities(
 ) -> (f32, f32) {
     match subject {
         Feature::Path => (j.cross[t.get()], j.cross[l.get()]),
-        f => (j.table[t][f.index()], j.table[l][f.index()]),
+        f => (j.table()[t][f.index()], j.table()[l][f.index()]),
     }
 }
 
@@ -535,7 +572,7 @@ mod tests {
         let best = j.best.unwrap();
         assert_eq!(j.choice, Some(best));
         assert_eq!(j.latent_loss(best), 0.0);
-        assert!(j.allowed.iter().all(|a| j.latent_loss(a) >= 0.0));
+        assert!(j.allowed().iter().all(|a| j.latent_loss(a) >= 0.0));
         // It steers away from the door: its best ends to the right.
         let end = firmware_core::lattice::trajectory(best).end();
         assert!(end.y < 0.0, "{best}: {end:?}");
@@ -603,7 +640,7 @@ mod tests {
     fn statements(spec: TeacherSpec) -> Vec<Vec<Feature>> {
         let mut t = Teacher::new(spec, 3);
         let j = t.judge(&busy_scene()).unwrap();
-        j.allowed
+        j.allowed()
             .iter()
             .filter_map(|a| match t.feedback(FeedbackKind::Semantic, &j, a) {
                 Some(Feedback::Semantic(s)) => Some(s.statements().map(|x| x.subject).collect()),
@@ -660,7 +697,7 @@ mod tests {
         assert_eq!(j.cross, cross_track_errors(&obs.reference));
         let choice = j.choice.unwrap();
         let mut checked = 0;
-        for a in j.allowed.iter().filter(|&a| a != choice) {
+        for a in j.allowed().iter().filter(|&a| a != choice) {
             let Some(Feedback::Semantic(s)) = t.feedback(FeedbackKind::Semantic, &j, a) else {
                 continue;
             };

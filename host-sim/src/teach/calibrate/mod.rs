@@ -274,17 +274,17 @@ pub fn measure_lap(scenario: &Arc<Scenario>, preset: &'static Preset) -> Result<
                 preset.name
             );
         };
-        let pf = policy::select(&follower_w, &j.table, j.allowed).unwrap_or(best);
-        let l = loss(&j.table, best, pf);
+        let pf = policy::select(&follower_w, j.table(), j.allowed()).unwrap_or(best);
+        let l = loss(j.table(), best, pf);
         out.follower.push(if pf == best { 0.0 } else { l });
         if pf != best {
             out.passages.push(l);
         }
-        for a in j.allowed.iter().filter(|&a| a != best) {
-            out.others.push(loss(&j.table, best, a));
+        for a in j.allowed().iter().filter(|&a| a != best) {
+            out.others.push(loss(j.table(), best, a));
         }
-        let init = policy::select(&[0.0; 6], &j.table, j.allowed).unwrap_or(best);
-        out.initial.push(loss(&j.table, best, init));
+        let init = policy::select(&[0.0; 6], j.table(), j.allowed()).unwrap_or(best);
+        out.initial.push(loss(j.table(), best, init));
         Ok(Some(best))
     })?;
     out.ticks = drive.ticks;

@@ -89,8 +89,9 @@ pub fn contrast(
         lap_tick_limit(scenario),
         |tick, obs| -> Result<_> {
             let refused = |e| anyhow::anyhow!("tick {tick}: observation refused: {e}");
+            // One evaluation, judged by both.
             let f = follower.judge(obs).map_err(refused)?;
-            let t = judge.judge(obs).map_err(refused)?;
+            let t = judge.judge_evaluation(f.evaluation.clone());
             if let Some(a) = f.best {
                 differs += u32::from(t.best != Some(a));
                 over_threshold += u32::from(t.latent_loss(a) > quiet.threshold);

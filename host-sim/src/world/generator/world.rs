@@ -31,7 +31,7 @@ pub struct Refusal {
 #[non_exhaustive]
 pub enum GenerateError {
     /// The options were refused.
-    #[error("{0}")]
+    #[error(transparent)]
     Options(#[from] OptionsError),
     /// Every attempt failed its checks.
     #[error("no world for seed {seed} passed its checks in {} attempts: {}", .refusals.len(), list(.refusals))]

@@ -13,12 +13,12 @@ use super::Cell;
 #[non_exhaustive]
 pub enum MapError {
     /// The file could not be read.
-    #[error("{path}: cannot read: {source}")]
+    #[error("{path}: cannot read: {error}")]
     Io {
         /// The file.
         path: PathBuf,
-        /// The I/O error.
-        source: std::io::Error,
+        /// The I/O error (in the message, so not a `source`: a chain of causes prints it once).
+        error: std::io::Error,
     },
     /// The YAML does not parse, or is not a mapping.
     #[error("{path}: malformed YAML: {message}")]

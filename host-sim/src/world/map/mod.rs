@@ -97,6 +97,35 @@ fn chebyshev_clearance(width: usize, height: usize, cells: &[Cell]) -> Vec<u16> 
     d
 }
 
+/// `v.floor() as i64`, exactly (saturating, NaN to 0), without the call to a software `floor`
+/// that the baseline x86-64 target (no SSE4.1) makes.
+#[inline]
+fn floor_to_int(v: f64) -> i64 {
+    let i = v as i64;
+    i.saturating_sub(i64::from((i as f64) > v))
+}
+
+/// One axis of a ray from grid coordinate `g`, in cell `cell`, along direction component `d`:
+/// the step between cells (±1), the ray parameter between two crossings of the axis's cell
+/// boundaries (infinite when `d` is 0), and the parameter of the first crossing.
+#[inline]
+fn axis_start(g: f64, cell: i64, d: f64) -> (i64, f64, f64) {
+    let step = if d > 0.0 { 1 } else { -1 };
+    let delta = if d != 0.0 {
+        1.0 / d.abs()
+    } else {
+        f64::INFINITY
+    };
+    let first = if d > 0.0 {
+        (cell as f64 + 1.0 - g) * delta
+    } else if d < 0.0 {
+        (g - cell as f64) * delta
+    } else {
+        f64::INFINITY
+    };
+    (step, delta, first)
+}
+
 /// A loaded occupancy grid. Row 0 is the **bottom** row (lowest `y`), as in
 /// `nav_msgs/OccupancyGrid`.
 #[derive(Clone, Debug)]
@@ -110,6 +139,9 @@ pub struct OccupancyGrid {
     cells: Vec<Cell>,
     /// Per cell: Chebyshev distance, in cells, to the nearest cell that is not free (outside
     /// the grid counts as not free); 0 for such cells. See [`OccupancyGrid::clearance_cells`].
+    /// Stored with a ring of zeros around the grid (rows of `width + 2`, cell `(c, r)` at
+    /// `(c + 1, r + 1)`), so that a ray cast, which never moves more than one cell beyond the free
+    /// square it leaves, stays on the array without checking its bounds ([`Self::padded`]).
     clearance: Vec<u16>,
     /// Where the map came from (for messages).
     source: PathBuf,
@@ -118,9 +150,9 @@ pub struct OccupancyGrid {
 impl OccupancyGrid {
     /// Loads the map described by the YAML file at `path`.
     pub fn load(path: &Path) -> Result<Self, MapError> {
-        let text = std::fs::read_to_string(path).map_err(|source| MapError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| MapError::Io {
             path: path.to_path_buf(),
-            source,
+            error,
         })?;
         let meta = MapMeta::parse(&text, path)?;
         Self::from_meta(&meta, path)
@@ -128,9 +160,9 @@ impl OccupancyGrid {
 
     /// Loads the image `meta` names; `yaml` is the YAML file (for messages).
     pub fn from_meta(meta: &MapMeta, yaml: &Path) -> Result<Self, MapError> {
-        let bytes = std::fs::read(&meta.image).map_err(|source| MapError::Io {
+        let bytes = std::fs::read(&meta.image).map_err(|error| MapError::Io {
             path: meta.image.clone(),
-            source,
+            error,
         })?;
         let ext = meta
             .image
@@ -177,7 +209,12 @@ impl OccupancyGrid {
         cells: Vec<Cell>,
         source: PathBuf,
     ) -> Self {
-        let clearance = chebyshev_clearance(width, height, &cells);
+        let unpadded = chebyshev_clearance(width, height, &cells);
+        let mut clearance = vec![0u16; (width + 2) * (height + 2)];
+        for (r, row) in unpadded.chunks_exact(width.max(1)).enumerate() {
+            let at = (r + 1) * (width + 2) + 1;
+            clearance[at..at + width].copy_from_slice(row);
+        }
         Self {
             width,
             height,
@@ -285,9 +322,8 @@ impl OccupancyGrid {
     #[inline]
     pub fn is_blocked(&self, x: f64, y: f64) -> bool {
         let (gx, gy) = self.to_grid(x, y);
-        // f64::floor is exact, like libm's, and a single instruction (the hot path of collision
-        // checks).
-        self.blocked_cell(gx.floor() as i64, gy.floor() as i64)
+        // The hot path of collision checks.
+        self.blocked_cell(floor_to_int(gx), floor_to_int(gy))
     }
 
     /// The Chebyshev distance, in cells, from the cell of the world point `(x, y)` to the
@@ -297,69 +333,115 @@ impl OccupancyGrid {
     #[inline]
     pub fn clearance_cells(&self, x: f64, y: f64) -> u16 {
         let (gx, gy) = self.to_grid(x, y);
-        let (cx, cy) = (gx.floor() as i64, gy.floor() as i64);
-        if self.blocked_cell(cx, cy) {
-            return 0;
+        let (cx, cy) = (floor_to_int(gx), floor_to_int(gy));
+        self.padded(cx, cy).map_or(0, |i| self.clearance[i])
+    }
+
+    /// The index of cell `(cx, cy)` in the padded `clearance`; `None` outside the grid.
+    #[inline]
+    fn padded(&self, cx: i64, cy: i64) -> Option<usize> {
+        if cx < 0 || cy < 0 || cx as usize >= self.width || cy as usize >= self.height {
+            return None;
         }
-        self.clearance[cy as usize * self.width + cx as usize]
+        Some((cy as usize + 1) * (self.width + 2) + cx as usize + 1)
     }
 
     /// Distance from `(x, y)` along heading `angle` (world frame, radians) to the first cell
     /// that is not free, at most `max_range`. A ray starting in a blocked cell returns 0.
     ///
-    /// Amanatides–Woo traversal: one step per cell crossed.
+    /// Amanatides–Woo traversal, skipping free space: in a cell of clearance `c` every cell
+    /// within `c − 1` cells along each axis is free, so the ray leaves that square in one jump to
+    /// the cell the traversal would step into next, instead of one step per cell. The crossing
+    /// times of a jump are computed in closed form (`t + k·Δt`) where the cell-by-cell traversal
+    /// adds `Δt` `k` times: the distances agree to rounding (about 10⁻¹⁵ m, far below the
+    /// sensor's 1 cm quantization; `raycast_agrees_with_the_cell_by_cell_traversal` checks
+    /// every beam of many poses on every map).
     pub fn raycast(&self, x: f64, y: f64, angle: f64, max_range: f64) -> f64 {
         let (gx, gy) = self.to_grid(x, y);
         let a = angle - self.origin[2];
-        let (dx, dy) = (libm::cos(a), libm::sin(a));
-        let mut cx = gx.floor() as i64;
-        let mut cy = gy.floor() as i64;
-        if self.blocked_cell(cx, cy) {
+        self.cast(gx, gy, libm::cos(a), libm::sin(a), max_range)
+    }
+
+    /// [`OccupancyGrid::raycast`] along the unit vector `(dx, dy)` (world frame) instead of an
+    /// angle: no trigonometry per ray when the caller rotates directions it knows (the scan's
+    /// beams by the car's heading). The same distance as `raycast` at the vector's angle, to
+    /// rounding.
+    pub fn raycast_along(&self, x: f64, y: f64, (dx, dy): (f64, f64), max_range: f64) -> f64 {
+        let (gx, gy) = self.to_grid(x, y);
+        let gdx = dx * self.cos_yaw + dy * self.sin_yaw;
+        let gdy = -dx * self.sin_yaw + dy * self.cos_yaw;
+        self.cast(gx, gy, gdx, gdy, max_range)
+    }
+
+    /// The traversal of [`OccupancyGrid::raycast`] from grid point `(gx, gy)` along the unit
+    /// vector `(dx, dy)` (grid frame).
+    fn cast(&self, gx: f64, gy: f64, dx: f64, dy: f64, max_range: f64) -> f64 {
+        let (cx, cy) = (floor_to_int(gx), floor_to_int(gy));
+        // The cell's index in the padded clearance; every move below is to a neighbour of the
+        // free square around the cell, on the array (its ring at worst, which is 0 and ends it).
+        let Some(mut at) = self.padded(cx, cy) else {
+            return 0.0;
+        };
+        let mut c = self.clearance[at];
+        if c == 0 {
             return 0.0;
         }
         let max_t = max_range / self.resolution;
-        let step_x: i64 = if dx > 0.0 { 1 } else { -1 };
-        let step_y: i64 = if dy > 0.0 { 1 } else { -1 };
-        let t_delta_x = if dx != 0.0 {
-            1.0 / dx.abs()
-        } else {
-            f64::INFINITY
-        };
-        let t_delta_y = if dy != 0.0 {
-            1.0 / dy.abs()
-        } else {
-            f64::INFINITY
-        };
-        let mut t_max_x = if dx > 0.0 {
-            (cx as f64 + 1.0 - gx) * t_delta_x
-        } else if dx < 0.0 {
-            (gx - cx as f64) * t_delta_x
-        } else {
-            f64::INFINITY
-        };
-        let mut t_max_y = if dy > 0.0 {
-            (cy as f64 + 1.0 - gy) * t_delta_y
-        } else if dy < 0.0 {
-            (gy - cy as f64) * t_delta_y
-        } else {
-            f64::INFINITY
-        };
+        let (step_x, t_delta_x, mut t_max_x) = axis_start(gx, cx, dx);
+        let (step_y, t_delta_y, mut t_max_y) = axis_start(gy, cy, dy);
+        let row = step_y as isize * (self.width + 2) as isize;
+        let step_x = step_x as isize;
+        let (abs_x, abs_y) = (dx.abs(), dy.abs());
         loop {
-            let t = if t_max_x < t_max_y {
+            let t = if c >= 2 {
+                // The square of cells within r = c − 1 of the cell is free: the traversal
+                // crosses r more boundaries on the axis it leaves the square by, and steps into
+                // the cell beyond; on the other axis it crosses every boundary before that (a tie
+                // steps the row first, as below). Never more than r: the square is left once.
+                let r = c as isize - 1;
+                let rf = r as f64;
+                let out_x = t_max_x + rf * t_delta_x;
+                let out_y = t_max_y + rf * t_delta_y;
+                let (moved, t) = if out_x < out_y {
+                    let mut moved = step_x * (r + 1);
+                    if t_max_y <= out_x {
+                        let rows = ((((out_x - t_max_y) * abs_y) as isize) + 1).min(r);
+                        moved += row * rows;
+                        t_max_y += rows as f64 * t_delta_y;
+                    }
+                    t_max_x = out_x + t_delta_x;
+                    (moved, out_x)
+                } else {
+                    let mut moved = row * (r + 1);
+                    if t_max_x < out_y {
+                        // The crossings strictly before out_y: ⌈q⌉ for q > 0.
+                        let q = (out_y - t_max_x) * abs_x;
+                        let whole = q as isize;
+                        let columns = (whole + isize::from((whole as f64) < q)).min(r);
+                        moved += step_x * columns;
+                        t_max_x += columns as f64 * t_delta_x;
+                    }
+                    t_max_y = out_y + t_delta_y;
+                    (moved, out_y)
+                };
+                at = at.wrapping_add_signed(moved);
+                t
+            } else if t_max_x < t_max_y {
                 let t = t_max_x;
                 t_max_x += t_delta_x;
-                cx += step_x;
+                at = at.wrapping_add_signed(step_x);
                 t
             } else {
                 let t = t_max_y;
                 t_max_y += t_delta_y;
-                cy += step_y;
+                at = at.wrapping_add_signed(row);
                 t
             };
             if t >= max_t {
                 return max_range;
             }
-            if self.blocked_cell(cx, cy) {
+            c = self.clearance.get(at).copied().unwrap_or(0);
+            if c == 0 {
                 return t * self.resolution;
             }
         }
@@ -374,7 +456,7 @@ impl OccupancyGrid {
         if reach <= 0.0 {
             return true;
         }
-        self.raycast(a.0, a.1, libm::atan2(dy, dx), reach) >= reach
+        self.raycast_along(a.0, a.1, (dx / len, dy / len), reach) >= reach
     }
 }
 
@@ -399,7 +481,7 @@ mod tests {
                         }
                     }
                 }
-                let got = g.clearance[(r * w + c) as usize] as i64;
+                let got = g.padded(c, r).map_or(0, |i| g.clearance[i]) as i64;
                 assert_eq!(got, want, "cell ({c}, {r})");
             }
         }
@@ -426,6 +508,144 @@ mod tests {
         assert!((down - 1.4).abs() < 1e-9, "{down}");
         assert_eq!(g.raycast(x, y, 0.3, 0.5), 0.5, "max range");
         assert_eq!(g.raycast(-0.95, 0.0, 0.0, 3.0), 0.0, "inside a wall");
+    }
+
+    /// The cell-by-cell Amanatides–Woo traversal `raycast` replaced (one step and one
+    /// `Δt` added per cell crossed).
+    fn raycast_cell_by_cell(g: &OccupancyGrid, x: f64, y: f64, angle: f64, max_range: f64) -> f64 {
+        let (gx, gy) = g.to_grid(x, y);
+        let a = angle - g.origin[2];
+        let (dx, dy) = (libm::cos(a), libm::sin(a));
+        let mut cx = gx.floor() as i64;
+        let mut cy = gy.floor() as i64;
+        if g.blocked_cell(cx, cy) {
+            return 0.0;
+        }
+        let max_t = max_range / g.resolution;
+        let (step_x, t_delta_x, mut t_max_x) = axis_start(gx, cx, dx);
+        let (step_y, t_delta_y, mut t_max_y) = axis_start(gy, cy, dy);
+        loop {
+            let t = if t_max_x < t_max_y {
+                let t = t_max_x;
+                t_max_x += t_delta_x;
+                cx += step_x;
+                t
+            } else {
+                let t = t_max_y;
+                t_max_y += t_delta_y;
+                cy += step_y;
+                t
+            };
+            if t >= max_t {
+                return max_range;
+            }
+            if g.blocked_cell(cx, cy) {
+                return t * g.resolution;
+            }
+        }
+    }
+
+    #[test]
+    fn floor_to_int_is_floor() {
+        for v in [
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.9999999999999996,
+            -2.0000000000000004,
+            1e300,
+            -1e300,
+            9.3e18,
+            -9.3e18,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            4503599627370497.0,
+        ] {
+            assert_eq!(floor_to_int(v), v.floor() as i64, "{v}");
+        }
+        let mut x = 0x0123_4567_89AB_CDEFu64;
+        for _ in 0..100_000 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            let v = (x as i64) as f64 / (1u64 << (x % 60)) as f64;
+            assert_eq!(floor_to_int(v), v.floor() as i64, "{v}");
+        }
+    }
+
+    #[test]
+    fn raycast_agrees_with_the_cell_by_cell_traversal() {
+        use crate::world::registry::{SCENARIOS, load_scenario_unchecked};
+        use crate::world::sim::SENSOR_RANGE;
+        use firmware_core::observation::{SCAN_BEAMS, SCAN_MAX_RANGE, beam_bearing};
+        let mut grids = vec![std::sync::Arc::new(room())];
+        for s in SCENARIOS {
+            grids.push(load_scenario_unchecked(s.name).unwrap().map);
+        }
+        let (mut rays, mut jumped) = (0u64, 0u64);
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut uniform = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for g in &grids {
+            let (w, h) = (
+                g.width() as f64 * g.resolution(),
+                g.height() as f64 * g.resolution(),
+            );
+            let o = g.origin();
+            for _ in 0..3000 {
+                let (x, y) = (o[0] + uniform() * w, o[1] + uniform() * h);
+                if g.is_blocked(x, y) {
+                    continue;
+                }
+                let theta = (uniform() - 0.5) * 2.0 * std::f64::consts::PI;
+                // The beams, and the axes and diagonals (a direction along an axis has a zero
+                // component).
+                // The direction as the sensing turns it: the beam's unit vector by the heading.
+                let (s, c) = (libm::sin(theta), libm::cos(theta));
+                let along = |b: f64| {
+                    let (bc, bs) = (libm::cos(b), libm::sin(b));
+                    (c * bc - s * bs, s * bc + c * bs)
+                };
+                let axes = (0..8).map(|k| (0.0, k as f64 * std::f64::consts::FRAC_PI_4));
+                let beams = (0..SCAN_BEAMS).map(|j| (theta, beam_bearing(j) as f64));
+                for (heading, b) in beams.chain(axes) {
+                    let a = heading + b;
+                    for range in [SCAN_MAX_RANGE as f64, SENSOR_RANGE] {
+                        let want = raycast_cell_by_cell(g, x, y, a, range);
+                        let by_angle = g.raycast(x, y, a, range);
+                        let by_vector = if heading == 0.0 {
+                            g.raycast_along(x, y, (libm::cos(b), libm::sin(b)), range)
+                        } else {
+                            g.raycast_along(x, y, along(b), range)
+                        };
+                        // What the car is sent: centimetres of the f32 range.
+                        let cm = |r: f64| ((r as f32).min(SCAN_MAX_RANGE) * 100.0).round();
+                        for got in [by_angle, by_vector] {
+                            assert!(
+                                (got - want).abs() <= 1e-12 * want.max(1.0),
+                                "{}: ({x}, {y}) at {a}: {got} against {want}",
+                                g.source().display()
+                            );
+                            assert_eq!(cm(got), cm(want), "({x}, {y}) at {a}");
+                        }
+                        rays += 1;
+                        jumped += u64::from(g.clearance_cells(x, y) >= 2);
+                    }
+                }
+            }
+        }
+        assert!(
+            rays > 1_000_000 && jumped > rays / 2,
+            "{rays} rays, {jumped} jumped"
+        );
     }
 
     #[test]
