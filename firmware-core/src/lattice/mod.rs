@@ -157,6 +157,9 @@ pub(crate) struct Reach {
     pub(crate) window: [u32; 2],
     /// The band: range bins `bins[0]..bins[1]` (each [`RANGE_BIN_WIDTH`] wide).
     pub(crate) bins: [u8; 2],
+    /// The window is the half plane ahead of a centre nearer the sensor than the distance: the
+    /// beams shorter than the distance may reach it from behind, whatever their bearing.
+    pub(crate) behind: bool,
 }
 
 /// Nearby distinct samples, pruned together by the evaluator: the samples
