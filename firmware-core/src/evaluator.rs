@@ -825,10 +825,13 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
 /// path reference (`along`, `cross`), and the end's `y`.
 fn path_and_side(obs: &Observation, allowed: u64, rows: &mut [Features; MAX_ACTIONS]) {
     let p = &obs.reference;
-    // Cosine and sine from `libm`: the same bits on the host and the car.
+    // Cosine and sine from `libm`: the same bits on the host and the car. One `sincosf` is the
+    // same bits as `sinf` and `cosf` apart (every heading in [-π, π] checked exhaustively) and
+    // reduces the angle once.
+    let (sin, cos) = libm::sincosf(p.heading);
     let reference = Isometry2::from_parts(
         Translation2::new(p.x, p.y),
-        UnitComplex::from_cos_sin_unchecked(libm::cosf(p.heading), libm::sinf(p.heading)),
+        UnitComplex::from_cos_sin_unchecked(cos, sin),
     );
     for_each_action(allowed, |a| {
         let [x, y] = END_POINTS[a];
