@@ -192,6 +192,8 @@ fn main() {
 
     let mut points: Vec<(f32, f32)> = Vec::new();
     let mut ends: Vec<String> = Vec::new();
+    let mut centres_of: Vec<String> = Vec::new();
+    let mut poses_of: Vec<String> = Vec::new();
     let mut sample_of: Vec<[usize; SAMPLES]> = Vec::new();
     let mut counts: Vec<usize> = Vec::new();
     for (i, t) in all.iter().enumerate() {
@@ -247,20 +249,45 @@ fn main() {
         };
         writeln!(
             out,
-            "    Trajectory {{ family: Family::{}, segments: [{}, {}], speed: {}, poses: [{}], sample_points: [{}], sample_count: {}, mirror: {} }}, // {}",
+            "    Trajectory {{ family: Family::{}, segments: [{}, {}], speed: {}, index: {}, sample_count: {}, mirror: {} }},",
             if t.creep { "Creep" } else { "Cruise" },
             seg(t.segments[0]),
             seg(t.segments[1]),
             f(t.speed),
-            poses,
-            centers,
+            i,
             counts[i],
             mirror[i],
-            i
         )
         .unwrap();
+        centres_of.push(format!("[{centers}]"));
+        poses_of.push(format!("[{poses}]"));
     }
     writeln!(out, "];").unwrap();
+    writeln!(
+        out,
+        "/// Per trajectory, its poses (`Trajectory::poses`), apart from the trajectories so that an\n\
+         /// image that reads only their segments (the car's) does not hold them."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static TRAJECTORY_POSES: [[Pose; SAMPLES]; crate::MAX_ACTIONS] = [{}];",
+        poses_of.join(",\n")
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// Per trajectory, its clearance samples (`Trajectory::samples`; unused slots repeat the\n\
+         /// last), apart from the trajectories so that an image that reads only their segments\n\
+         /// (the car's) does not hold them."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static TRAJECTORY_SAMPLES: [[[f32; 2]; SAMPLES]; crate::MAX_ACTIONS] = [{}];",
+        centres_of.join(",\n")
+    )
+    .unwrap();
     writeln!(
         out,
         "/// The end of every trajectory, `[x, y]`: the position of its last pose (the evaluator's\n\

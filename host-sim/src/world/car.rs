@@ -192,9 +192,9 @@ impl Tracker {
 
     /// Fixes `trajectory` in the world at `origin` (the pose where it was chosen).
     pub fn new(origin: Pose, trajectory: &Trajectory) -> Self {
-        let mut points = Vec::with_capacity(trajectory.poses.len() + 1);
+        let mut points = Vec::with_capacity(trajectory.poses().len() + 1);
         points.push((origin.x, origin.y));
-        for p in &trajectory.poses {
+        for p in trajectory.poses() {
             points.push(origin.to_world(p.x as f64, p.y as f64));
         }
         let lens = points
