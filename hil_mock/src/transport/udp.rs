@@ -285,7 +285,7 @@ impl Link for UdpLink {
     }
 
     /// Returns a frame already received, else reads the socket, and while it is empty waits in
-    /// [`wait_readable`] for the time left: a datagram is taken the moment it arrives.
+    /// `wait_readable` for the time left: a datagram is taken the moment it arrives.
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         self.answer_to = None;
         let start = Instant::now();
