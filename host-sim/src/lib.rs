@@ -32,9 +32,11 @@
 //!    statistics and aggregates, the paper's claims (one pure function each), the figures and
 //!    drawings, and the report's sections.
 //!
-//! The `host-sim` command (`src/main.rs`, its commands in `src/cli/`) sits on top of the three.
-//! Beside them, [`checks`] checks the numbers a user gives, the same way and in the same words
-//! wherever they come from: a flag, a scenario file, a configuration built in code.
+//! On top of them, [`console`]: the teaching console of `host-sim teach`, a web page on
+//! 127.0.0.1 from which a person teaches the car ([`teach::session`]). The `host-sim` command
+//! (`src/main.rs`, its commands in `src/cli/`) sits on top of all of it. Beside them, [`checks`]
+//! checks the numbers a user gives, the same way and in the same words wherever they come from:
+//! a flag, a scenario file, a configuration built in code.
 //!
 //! Every random choice takes a seed and no clock is read: the same configuration gives
 //! bit-identical records.
@@ -43,6 +45,7 @@
 #![deny(missing_docs)]
 
 pub mod checks;
+pub mod console;
 pub mod report;
 pub mod teach;
 pub mod world;

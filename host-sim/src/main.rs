@@ -64,6 +64,17 @@ enum Command {
     /// totals, mean latent loss of the first and last 10% of the steps, wall time) and
     /// DIR/run.png and run.svg (the latent loss and the corrections against the tick).
     Run(RunArgs),
+    /// Teach the car yourself, from a web page: a console on 127.0.0.1 (the URL with its
+    /// one-time token is printed; nothing is opened by itself). The learner runs in this process,
+    /// or on the car with --link.
+    ///
+    /// Writes into the session's folder: steps.csv and summary.json (as `run` does),
+    /// feedback.jsonl (every teaching: tick, kind, content, wall time), snapshots.jsonl (the
+    /// learner after every feedback) and, with --link, candump.log.
+    Teach(cli::teach::TeachArgs),
+    /// Replay a session of `host-sim teach` against a fresh learner in this process and check
+    /// that steps.csv, snapshots.jsonl and the final weights come out byte for byte the same.
+    ReplaySession(cli::teach::ReplayArgs),
     /// List the built-in scenarios, teacher presets and experiments.
     List,
     /// Draw the built-in household maps into DIR (NAME.pgm + NAME.yaml, map_server format).
@@ -198,87 +209,21 @@ struct RunArgs {
     /// Output folder (created if missing).
     #[arg(long, default_value = "out")]
     out: PathBuf,
-    /// Run the learner on the car's controller over this CAN link (udp://127.0.0.1:PORT,
-    /// slcan+tcp://127.0.0.1:PORT, slcan+serial:///dev/…, socketcan://IFACE; `hil_mock serve`
-    /// or the firmware at the other end). Without it, the learner runs in this process.
-    #[arg(long)]
-    link: Option<String>,
+    #[command(flatten)]
+    link: cli::link::LinkArgs,
     /// With --link: write every frame to this candump log.
     #[arg(long, requires = "link")]
     record: Option<PathBuf>,
-    /// With --link: disturb the frames the host sends (drop=P,corrupt=P,duplicate=P,
-    /// reorder=P,delay=P,max-delay-ms=N,seed=N).
-    #[arg(long, requires = "link")]
-    faults: Option<String>,
-    /// With --link: the frames the host sends, classic or fd.
-    #[arg(long, requires = "link", default_value = "fd", value_parser = parse_frame_mode)]
-    frame_mode: protocol::isotp::FrameMode,
-    /// With --link: wait this long for each answer before sending the request again (ms). The
-    /// default suits loopback and CAN; a slow serial line needs more.
-    #[arg(long, requires = "link", default_value_t = 20)]
-    try_timeout_ms: u64,
-    /// With --link: the car's key file (`hil_mock keygen FILE`); without it (or --insecure)
-    /// a run over a link refuses to start.
-    #[arg(long, requires = "link", conflicts_with = "insecure")]
-    key: Option<PathBuf>,
-    /// With --link: use the public all-zero key (anyone on the bus can drive and teach the car).
-    #[arg(long, requires = "link")]
-    insecure: bool,
-}
-
-fn parse_frame_mode(s: &str) -> Result<protocol::isotp::FrameMode, String> {
-    match s {
-        "classic" => Ok(protocol::isotp::FrameMode::Classic),
-        "fd" => Ok(protocol::isotp::FrameMode::Fd),
-        _ => Err(format!("unknown frame mode '{s}', expected classic or fd")),
-    }
 }
 
 /// The learner's link for `run`: in process, or a `RemoteCar` over `--link`.
 fn car_link(args: &RunArgs, config: &RunConfig) -> Result<Box<dyn experiment::CarLink>> {
-    use hil_mock::transport::fault::{FaultConfig, FaultyLink};
-    use hil_mock::transport::record::RecordingLink;
-    use hil_mock::transport::{Link, LinkAddress};
-    let Some(link) = &args.link else {
-        return Ok(Box::new(InProcessLink::new(config.learner)?));
-    };
-    let key = hil_mock::key::choose(args.key.as_deref(), args.insecure, "host-sim")?;
-    let address: LinkAddress = link.parse()?;
-    let faults = args
-        .faults
-        .as_deref()
-        .map(|f| f.parse::<FaultConfig>().map_err(anyhow::Error::msg))
-        .transpose()
-        .context("--faults")?;
-    let mut link: Box<dyn Link> = match address {
-        // A TCP connection ends with the car's process: open it again when the car is back.
-        LinkAddress::SlcanTcp(_) => {
-            Box::new(hil_mock::transport::reconnect::ReconnectingLink::open(
-                address,
-                std::time::Duration::from_secs(30),
-            )?)
-        }
-        _ => address.open(std::time::Duration::from_secs(30))?,
-    };
-    if let Some(path) = &args.record {
-        link = Box::new(RecordingLink::new(link, path, "can0")?);
-    }
-    if let Some(f) = faults {
-        link = Box::new(FaultyLink::new(link, f));
-    }
-    eprintln!(
-        "host-sim: the learner runs on the car, over {}",
-        link.describe()
-    );
-    let remote = host_sim::teach::remote::RemoteCar::new(
-        link,
-        host_sim::teach::remote::RemoteConfig {
-            mode: args.frame_mode,
-            try_timeout: std::time::Duration::from_millis(args.try_timeout_ms.max(1)),
-            ..host_sim::teach::remote::RemoteConfig::new(key)
+    Ok(
+        match cli::link::remote_car(&args.link, args.record.as_deref())? {
+            Some(remote) => Box::new(remote),
+            None => Box::new(InProcessLink::new(config.learner)?),
         },
-    );
-    Ok(Box::new(remote))
+    )
 }
 
 fn parse_statements(s: &str) -> Result<StatementSet, String> {
@@ -409,6 +354,8 @@ fn main() -> ExitCode {
     let result = match &cli.command {
         Command::Demo(args) => cli::demo::demo(args),
         Command::Run(args) => run(args),
+        Command::Teach(args) => cli::teach::teach(args, load_scenario),
+        Command::ReplaySession(args) => cli::teach::replay_session(args, load_scenario),
         Command::List => cli::inspect::list(),
         Command::GenMaps { out } => host_sim::world::households::write_all(out).and_then(|files| {
             for f in files {

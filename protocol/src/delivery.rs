@@ -778,6 +778,102 @@ mod tests {
         assert!(postcard::from_bytes::<FeedbackReceiver>(&bad).is_err());
     }
 
+    /// Delivers `seq` with `verdict` and says whether `apply` ran.
+    fn answered(car: &mut FeedbackReceiver, seq: u8, verdict: Verdict) -> bool {
+        let mut ran = false;
+        car.receive(&msg(3, seq), |_| {
+            ran = true;
+            verdict
+        });
+        ran
+    }
+
+    /// Applied for even numbers, refused for odd ones: neighbouring slots differ.
+    fn verdict_of(seq: u8) -> Verdict {
+        if seq.is_multiple_of(2) {
+            Verdict::Applied
+        } else {
+            Verdict::Refused(NackCode::Rejected)
+        }
+    }
+
+    #[test]
+    fn recorded_answers_exactly_the_window_across_the_wrap() {
+        let mut car = FeedbackReceiver::new();
+        for seq in (200..=255).chain(0..=10) {
+            assert!(answered(&mut car, seq, verdict_of(seq)), "{seq} is new");
+        }
+        // The window is 235 ..= 10, across the wrap: each number's own verdict.
+        for back in 0..DEDUPE_WINDOW as u8 {
+            let seq = 10u8.wrapping_sub(back);
+            assert_eq!(
+                car.recorded(DeliveryId { session: 3, seq }),
+                Some(verdict_of(seq)),
+                "{seq}"
+            );
+        }
+        // 234 is DEDUPE_WINDOW behind: its slot now holds 10's verdict, but 234 is stale.
+        let stale = DeliveryId {
+            session: 3,
+            seq: 10u8.wrapping_sub(DEDUPE_WINDOW as u8),
+        };
+        assert_eq!(car.recorded(stale), None);
+        assert!(!answered(&mut car, stale.seq, Verdict::Applied));
+        // Numbers not yet received, just ahead of the window, have no verdict.
+        for seq in 11..=20 {
+            assert_eq!(car.recorded(DeliveryId { session: 3, seq }), None, "{seq}");
+        }
+    }
+
+    #[test]
+    fn a_jump_past_the_window_forgets_every_old_verdict() {
+        for start in [0u8, 240] {
+            let mut car = FeedbackReceiver::new();
+            for k in 0..DEDUPE_WINDOW as u8 {
+                let seq = start.wrapping_add(k);
+                assert!(answered(&mut car, seq, verdict_of(seq)));
+            }
+            // A jump of 40 (the sender gave up on the numbers between): the new window holds
+            // only the new number; every other number in it is new, including the one whose
+            // slot the old highest number used.
+            let high = start.wrapping_add(DEDUPE_WINDOW as u8 - 1);
+            let jump = high.wrapping_add(40);
+            assert!(answered(&mut car, jump, Verdict::Applied));
+            for back in 1..DEDUPE_WINDOW as u8 {
+                let seq = jump.wrapping_sub(back);
+                assert_eq!(
+                    car.recorded(DeliveryId { session: 3, seq }),
+                    None,
+                    "start {start}: {seq} was never received"
+                );
+                assert!(
+                    answered(&mut car, seq, Verdict::Applied),
+                    "start {start}: {seq} is new"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn retransmissions_go_oldest_first_across_the_wrap() {
+        let mut host = FeedbackSender::new(1, POLICY);
+        // 254 feedbacks delivered: the next number is 254.
+        for i in 0..254 {
+            let m = host.send(0, i, fb(i as usize)).unwrap();
+            assert!(host.on_reply(&Message::Ack(Ack { id: m.id })).is_some());
+        }
+        // MAX_IN_FLIGHT outstanding, 254, 255, 0, 1, all lost: they come back in that order.
+        let sent: Vec<u8> = (0..MAX_IN_FLIGHT as u32)
+            .map(|i| host.send(100, 300 + i, fb(i as usize)).unwrap().id.seq)
+            .collect();
+        assert_eq!(sent, [254, 255, 0, 1]);
+        let mut again = Vec::new();
+        while let Some(SenderEvent::Retransmit(m)) = host.poll(100 + POLICY.timeout_ms) {
+            again.push(m.id.seq);
+        }
+        assert_eq!(again, sent);
+    }
+
     #[derive(Debug, Clone)]
     struct Step {
         give: bool,

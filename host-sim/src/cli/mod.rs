@@ -45,7 +45,9 @@ pub(crate) mod demo;
 pub(crate) mod generate;
 pub(crate) mod inspect;
 pub(crate) mod learners;
+pub(crate) mod link;
 pub(crate) mod reproduce;
+pub(crate) mod teach;
 
 pub(crate) fn parse_kind(s: &str) -> Result<LearnerKind, String> {
     LearnerKind::from_name(s).ok_or_else(|| {

@@ -9,6 +9,8 @@
 //!   versioned snapshot the car persists.
 //! * [`remote`]: [`remote::RemoteCar`], the [`experiment::CarLink`] to a learner on the car's
 //!   controller (`hil_mock`, the firmware) over a CAN link.
+//! * [`person`]: what a person at the teaching console can do, and the feedback each becomes.
+//! * [`session`]: a person teaching (`host-sim teach`): the session, its files, its replay.
 //! * [`synthetic`]: a seeded synthetic stream (no world) for the `demo` command.
 //! * [`learners`]: `host-sim learners`, every learner × feedback × noise × world, and the rule
 //!   that picks `host-sim run`'s default learner from it (`docs/learners.md`).
@@ -21,6 +23,8 @@ pub mod config;
 pub mod experiment;
 pub mod learner_file;
 pub mod learners;
+pub mod person;
 pub mod record;
 pub mod remote;
+pub mod session;
 pub mod synthetic;

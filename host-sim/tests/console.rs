@@ -1,0 +1,596 @@
+//! The teaching console end to end, in a real headless browser: Debian's chromium driven through
+//! chromedriver (WebDriver) by fantoccini. `host-sim teach` runs as a person would start it; the
+//! test opens the printed URL, teaches through real clicks and key presses, finishes the session
+//! and replays it with `host-sim replay-session`.
+//!
+//! Needs `chromium` and `chromedriver` (scripts/setup-browser installs them) and the
+//! `browser-test` feature:
+//!
+//! ```text
+//! scripts/setup-browser
+//! cargo test -p host-sim --features browser-test --test console -- --ignored
+//! ```
+//!
+//! The screenshots are saved under target/tmp/console/ (`CARGO_TARGET_TMPDIR`).
+
+use std::io::{BufRead, BufReader, Read, Write};
+use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, mpsc};
+use std::time::{Duration, Instant};
+
+use fantoccini::actions::{
+    InputSource, KeyAction, KeyActions, MOUSE_BUTTON_LEFT, MouseActions, PointerAction,
+};
+use fantoccini::{Client, ClientBuilder, Locator};
+use serde_json::{Value, json};
+
+/// One browser at a time: the machine has two cores.
+static BROWSER: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+
+/// How long anything may take before the test gives up (a failure, not a measurement).
+const PATIENCE: Duration = Duration::from_secs(60);
+
+/// A child process killed when dropped.
+struct Process(Child);
+
+impl Drop for Process {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind((Ipv4Addr::LOCALHOST, 0))
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// chromedriver on a free port of 127.0.0.1, and a headless chromium session through it.
+async fn browser(profile: &Path) -> (Process, Client) {
+    let port = free_port();
+    let driver = Command::new("chromedriver")
+        .arg(format!("--port={port}"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("chromedriver runs (scripts/setup-browser installs it)");
+    let driver = Process(driver);
+    let deadline = Instant::now() + PATIENCE;
+    while TcpStream::connect((Ipv4Addr::LOCALHOST, port)).is_err() {
+        assert!(Instant::now() < deadline, "chromedriver did not listen");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let mut caps = serde_json::Map::new();
+    caps.insert(
+        "goog:chromeOptions".into(),
+        json!({
+            "binary": "/usr/bin/chromium",
+            "args": [
+                "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic",
+                "--no-first-run", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync",
+                format!("--user-data-dir={}", profile.display()),
+                "--window-size=1400,1100",
+            ],
+        }),
+    );
+    let client = ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
+        .capabilities(caps)
+        .connect(&format!("http://127.0.0.1:{port}"))
+        .await
+        .expect("a chromium session");
+    (driver, client)
+}
+
+/// `host-sim teach ARGS`, and the URL it printed; its later output is collected.
+fn teach(args: &[&str]) -> (Process, String, mpsc::Receiver<String>) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .arg("teach")
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("host-sim runs");
+    let stdout = child.stdout.take().unwrap();
+    let (tx, rx) = mpsc::channel();
+    std::thread::spawn(move || {
+        for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+            if tx.send(line).is_err() {
+                return;
+            }
+        }
+    });
+    let child = Process(child);
+    loop {
+        let line = rx
+            .recv_timeout(PATIENCE)
+            .expect("host-sim teach prints its URL");
+        if let Some(url) = line.strip_prefix("open ") {
+            assert!(url.starts_with("http://127.0.0.1:"), "{url}");
+            return (child, url.to_string(), rx);
+        }
+    }
+}
+
+/// Status line and body of a plain GET of `url` (no browser).
+fn get(url: &str) -> (String, String) {
+    let rest = url.strip_prefix("http://").unwrap();
+    let (authority, path) = rest.split_at(rest.find('/').unwrap());
+    let mut s = TcpStream::connect(authority).unwrap();
+    write!(
+        s,
+        "GET {path} HTTP/1.1\r\nHost: {authority}\r\nConnection: close\r\n\r\n"
+    )
+    .unwrap();
+    let mut text = String::new();
+    s.read_to_string(&mut text).unwrap();
+    let status = text.lines().next().unwrap_or_default().to_string();
+    let body = text
+        .split("\r\n\r\n")
+        .nth(1)
+        .unwrap_or_default()
+        .to_string();
+    (status, body)
+}
+
+async fn js(c: &Client, script: &str) -> Value {
+    c.execute(script, vec![]).await.expect(script)
+}
+
+/// Polls `script` until it returns something truthy.
+async fn until(c: &Client, script: &str, what: &str) -> Value {
+    let deadline = Instant::now() + PATIENCE;
+    loop {
+        let v = js(c, script).await;
+        let truthy = match &v {
+            Value::Null => false,
+            Value::Bool(b) => *b,
+            Value::Number(n) => n.as_f64() != Some(0.0),
+            Value::String(s) => !s.is_empty(),
+            _ => true,
+        };
+        if truthy {
+            return v;
+        }
+        assert!(Instant::now() < deadline, "waited in vain for {what}");
+        tokio::task::yield_now().await;
+        std::thread::sleep(Duration::from_millis(40));
+    }
+}
+
+async fn press(c: &Client, key: char) {
+    let keys = KeyActions::new("keyboard".into())
+        .then(KeyAction::Down { value: key })
+        .then(KeyAction::Up { value: key });
+    c.perform_actions(keys).await.expect("a key press");
+}
+
+/// A real click at page point (x, y).
+async fn click_at(c: &Client, x: f64, y: f64) {
+    let mouse = MouseActions::new("mouse".into())
+        .then(PointerAction::MoveTo {
+            duration: None,
+            x: x.round(),
+            y: y.round(),
+        })
+        .then(PointerAction::Down {
+            button: MOUSE_BUTTON_LEFT,
+        })
+        .then(PointerAction::Up {
+            button: MOUSE_BUTTON_LEFT,
+        });
+    c.perform_actions(mouse).await.expect("a click");
+    c.release_actions().await.unwrap();
+}
+
+async fn click_button(c: &Client, id: &str) {
+    c.find(Locator::Id(id))
+        .await
+        .expect(id)
+        .click()
+        .await
+        .expect(id);
+}
+
+async fn text(c: &Client, id: &str) -> String {
+    c.find(Locator::Id(id))
+        .await
+        .expect(id)
+        .text()
+        .await
+        .expect(id)
+}
+
+async fn weights(c: &Client) -> Vec<String> {
+    let v = js(
+        c,
+        "return [...document.querySelectorAll('#weights .row')].map(r => r.dataset.value || '')",
+    )
+    .await;
+    serde_json::from_value(v).unwrap()
+}
+
+async fn corrections(c: &Client) -> u64 {
+    text(c, "corrections").await.parse().unwrap()
+}
+
+async fn wait_corrections(c: &Client, n: u64) {
+    until(
+        c,
+        &format!("return document.getElementById('corrections').textContent === '{n}'"),
+        &format!("{n} corrections"),
+    )
+    .await;
+}
+
+/// Opens the console, waits for the map and the 64 trajectories, and checks them.
+async fn open(c: &Client, url: &str) {
+    c.goto(url).await.unwrap();
+    let drawn = until(
+        c,
+        "const d = window.teachConsole && window.teachConsole.drawn; \
+         return d && d.map && d.trajectories === 64 ? d : null",
+        "the map and the 64 trajectories drawn",
+    )
+    .await;
+    assert!(drawn["allowed"].as_u64().unwrap() > 1, "{drawn}");
+    assert!(drawn["chosen"].is_u64(), "{drawn}");
+    // The map really is on the canvas: its pixels are not all the background.
+    let painted = js(
+        c,
+        "const v = document.getElementById('view'); \
+         const d = v.getContext('2d').getImageData(0, 0, v.width, v.height).data; \
+         let white = 0; for (let i = 0; i < d.length; i += 4) \
+           if (d[i] > 250 && d[i + 1] > 250 && d[i + 2] > 250) white++; \
+         return white",
+    )
+    .await;
+    assert!(
+        painted.as_u64().unwrap() > 10_000,
+        "free space drawn: {painted}"
+    );
+}
+
+/// Clicks the allowed trajectory whose end is farthest from the learner's choice; returns it.
+async fn click_a_trajectory(c: &Client) -> u64 {
+    let pick = js(
+        c,
+        "const s = window.teachConsole.state(); \
+         const end = (a) => window.teachConsole.pointOf(a); \
+         const mine = end(s.chosen); let best = null, far = -1; \
+         for (const a of s.allowed) { const p = end(a); \
+           const d = Math.hypot(p.x - mine.x, p.y - mine.y); if (d > far) { far = d; best = a; } } \
+         return {action: best, point: end(best)}",
+    )
+    .await;
+    let a = pick["action"].as_u64().unwrap();
+    click_at(
+        c,
+        pick["point"]["x"].as_f64().unwrap(),
+        pick["point"]["y"].as_f64().unwrap(),
+    )
+    .await;
+    a
+}
+
+fn lines(path: &Path) -> Vec<Value> {
+    std::fs::read_to_string(path)
+        .unwrap()
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect()
+}
+
+fn artifacts() -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("console");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Saves the page, from its top, as `name` under target/tmp/console/.
+async fn screenshot(c: &Client, name: &str) {
+    js(c, "window.scrollTo(0, 0); return true").await;
+    std::thread::sleep(Duration::from_millis(200));
+    let png = c.screenshot().await.expect("a screenshot");
+    std::fs::write(artifacts().join(name), png).unwrap();
+}
+
+/// Ends the session with the page's button and waits for host-sim teach to exit.
+async fn finish(c: &Client, teach: &mut Process, out: &mpsc::Receiver<String>) -> Vec<String> {
+    click_button(c, "finish").await;
+    until(
+        c,
+        "return !document.getElementById('ended').hidden",
+        "the page says the session ended",
+    )
+    .await;
+    let deadline = Instant::now() + PATIENCE;
+    let status = loop {
+        if let Some(s) = teach.0.try_wait().unwrap() {
+            break s;
+        }
+        assert!(Instant::now() < deadline, "host-sim teach did not exit");
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert!(status.success(), "{status:?}");
+    out.try_iter().collect()
+}
+
+/// `host-sim replay-session DIR` succeeds, and its files are the session's, byte for byte.
+fn replays_byte_for_byte(dir: &Path) {
+    let replay = Command::new(env!("CARGO_BIN_EXE_host-sim"))
+        .args(["replay-session", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&replay.stdout);
+    assert!(replay.status.success(), "{replay:?}");
+    assert!(stdout.contains("identical"), "{stdout}");
+    for name in ["steps.csv", "snapshots.jsonl"] {
+        let (a, b) = (
+            std::fs::read(dir.join(name)).unwrap(),
+            std::fs::read(dir.join("replay").join(name)).unwrap(),
+        );
+        assert!(!a.is_empty() && a == b, "{name} differs");
+    }
+    let summary = |p: PathBuf| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let (a, b) = (
+        summary(dir.join("summary.json")),
+        summary(dir.join("replay").join("summary.json")),
+    );
+    for key in ["final_weights", "final_iterate", "learner_steps", "totals"] {
+        assert_eq!(a[key], b[key], "{key}");
+    }
+}
+
+#[tokio::test]
+#[ignore = "needs chromium and chromedriver (scripts/setup-browser); .ci/run runs it"]
+async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte() {
+    let _one = BROWSER.lock().await;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("session");
+    let (mut teach, url, out) = teach(&[
+        "--scenario",
+        "doors",
+        "--session-dir",
+        dir.to_str().unwrap(),
+    ]);
+    let base = url.split("/?").next().unwrap().to_string();
+
+    // Without the token, or with another, the console refuses: to a plain request and in the
+    // browser.
+    let (status, body) = get(&format!("{base}/"));
+    assert!(status.contains("403"), "{status}");
+    assert!(body.contains("needs the token"), "{body}");
+    assert!(get(&format!("{base}/?token=0123")).0.contains("403"));
+    assert!(get(&format!("{base}/ws")).0.contains("403"));
+    let (_driver, c) = browser(&tmp.path().join("profile")).await;
+    c.goto(&format!("{base}/")).await.unwrap();
+    let refused = c
+        .find(Locator::Css("body"))
+        .await
+        .unwrap()
+        .text()
+        .await
+        .unwrap();
+    assert!(refused.contains("refused"), "{refused}");
+
+    // With it: the map and the 64 trajectories.
+    open(&c, &url).await;
+    assert_eq!(text(&c, "status").await, "paused");
+    assert_eq!(corrections(&c).await, 0);
+    let before = weights(&c).await;
+    assert_eq!(before.len(), 6);
+
+    // A click on a trajectory: "go there". The counter goes up and the weights move.
+    let clicked = click_a_trajectory(&c).await;
+    wait_corrections(&c, 1).await;
+    until(
+        &c,
+        "return [...document.querySelectorAll('#weights .row')].some(r => Number(r.dataset.value) !== 0)",
+        "the weights to move",
+    )
+    .await;
+    assert_ne!(weights(&c).await, before, "the weights changed");
+
+    // A preference: the mode by its button, the answer by its key ("the other is better").
+    click_button(&c, "preference").await;
+    until(&c, "return window.teachConsole.mode() === 'preference' && window.teachConsole.candidate() !== null", "preference mode").await;
+    press(&c, '2').await;
+    wait_corrections(&c, 2).await;
+    // A statement, by its key: "stay on the path".
+    press(&c, 'l').await;
+    wait_corrections(&c, 3).await;
+    // And by its button: "avoid doors".
+    click_button(&c, "say-avoid-doors").await;
+    wait_corrections(&c, 4).await;
+
+    // Play, pause, single steps.
+    let t0: u64 = text(&c, "tick").await.parse().unwrap();
+    press(&c, ' ').await;
+    until(
+        &c,
+        &format!(
+            "return Number(document.getElementById('tick').textContent) >= {}",
+            t0 + 5
+        ),
+        "the ticks to run",
+    )
+    .await;
+    press(&c, ' ').await;
+    until(
+        &c,
+        "return document.getElementById('status').textContent === 'paused'",
+        "the pause",
+    )
+    .await;
+    let t1: u64 = text(&c, "tick").await.parse().unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(
+        text(&c, "tick").await.parse::<u64>().unwrap(),
+        t1,
+        "paused stays"
+    );
+    press(&c, '.').await;
+    until(
+        &c,
+        &format!(
+            "return document.getElementById('tick').textContent === '{}'",
+            t1 + 1
+        ),
+        "a single step",
+    )
+    .await;
+    click_button(&c, "step").await;
+    until(
+        &c,
+        &format!(
+            "return document.getElementById('tick').textContent === '{}'",
+            t1 + 2
+        ),
+        "another step",
+    )
+    .await;
+    // Faster, then a click at the new tick.
+    press(&c, '+').await;
+    until(
+        &c,
+        "return document.getElementById('speed').textContent === '2×'",
+        "2×",
+    )
+    .await;
+    click_button(&c, "preference").await;
+    click_a_trajectory(&c).await;
+    wait_corrections(&c, 5).await;
+
+    // The page as it is now: the README's screenshot.
+    screenshot(&c, "console.png").await;
+
+    // The E-stop, by its key.
+    press(&c, '\u{E00C}').await;
+    until(
+        &c,
+        "return document.getElementById('status').textContent === 'E-STOPPED'",
+        "the E-stop",
+    )
+    .await;
+    assert_eq!(corrections(&c).await, 5, "an E-stop teaches nothing yet");
+
+    let said = finish(&c, &mut teach, &out).await;
+    assert!(said.iter().any(|l| l.contains("session ended")), "{said:?}");
+    c.close().await.unwrap();
+
+    // The session's files: every teaching with its tick, kind, content and wall time.
+    let feedback = lines(&dir.join("feedback.jsonl"));
+    let kinds: Vec<&str> = feedback
+        .iter()
+        .map(|e| e["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            "action",
+            "preference",
+            "statement",
+            "statement",
+            "action",
+            "estop"
+        ]
+    );
+    assert_eq!(feedback[0]["content"]["action"], clicked);
+    assert_eq!(feedback[2]["content"]["statement"], "stay-on-path");
+    assert_eq!(feedback[3]["content"]["statement"], "avoid-doors");
+    assert!(
+        feedback
+            .iter()
+            .all(|e| e["tick"].is_u64() && e["wall_time_ms"].is_u64())
+    );
+    assert_eq!(lines(&dir.join("snapshots.jsonl")).len(), 5);
+    let summary: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["config"]["feedback"], "person");
+    assert_eq!(summary["session"]["finished"], true);
+    assert_eq!(summary["session"]["ticks"], t1 + 2);
+    replays_byte_for_byte(&dir);
+}
+
+#[tokio::test]
+#[ignore = "needs chromium and chromedriver (scripts/setup-browser); .ci/run runs it"]
+async fn the_console_teaches_the_car_over_the_link() {
+    use hil_mock::server::Server;
+    use hil_mock::transport::udp::UdpLink;
+    use protocol::car::CarConfig;
+
+    let _one = BROWSER.lock().await;
+    let tmp = tempfile::tempdir().unwrap();
+    // The car: a hil_mock server on UDP 127.0.0.1 with its key.
+    let mut car = UdpLink::listen(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0)).unwrap();
+    let SocketAddr::V4(addr) = car.local_addr().unwrap() else {
+        unreachable!("bound on 127.0.0.1")
+    };
+    let key_file = tmp.path().join("car.key");
+    let key = hil_mock::key::keygen(&key_file).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = stop.clone();
+    let server = std::thread::spawn(move || {
+        let mut s = Server::in_memory(CarConfig::default(), &key, 9);
+        s.run(&mut car, &flag).unwrap();
+        s.node().stats()
+    });
+    let dir = tmp.path().join("session");
+    let link = format!("udp://{addr}");
+    let (mut teach, url, out) = teach(&[
+        "--scenario",
+        "stairs-right",
+        "--session-dir",
+        dir.to_str().unwrap(),
+        "--link",
+        &link,
+        "--key",
+        key_file.to_str().unwrap(),
+    ]);
+    let (_driver, c) = browser(&tmp.path().join("profile")).await;
+    open(&c, &url).await;
+    // The page shows the link's state.
+    until(
+        &c,
+        "return document.getElementById('link').dataset.connected === 'true'",
+        "the link connected",
+    )
+    .await;
+    let link_text = text(&c, "link").await;
+    assert!(
+        link_text.contains("connected") && link_text.contains("retransmissions"),
+        "{link_text}"
+    );
+    click_a_trajectory(&c).await;
+    wait_corrections(&c, 1).await;
+    press(&c, 'd').await;
+    wait_corrections(&c, 2).await;
+    for _ in 0..5 {
+        press(&c, '.').await;
+    }
+    until(
+        &c,
+        "return document.getElementById('tick').textContent === '5'",
+        "five steps",
+    )
+    .await;
+    screenshot(&c, "console-link.png").await;
+    finish(&c, &mut teach, &out).await;
+    c.close().await.unwrap();
+    stop.store(true, Ordering::Relaxed);
+    let stats = server.join().unwrap();
+    assert!(stats.observations >= 6, "{stats:?}");
+    let candump = std::fs::read_to_string(dir.join("candump.log")).unwrap();
+    assert!(candump.lines().count() > 10, "the frames are logged");
+    // The car's session replays in process, byte for byte.
+    replays_byte_for_byte(&dir);
+}
