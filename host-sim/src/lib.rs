@@ -29,8 +29,9 @@
 //!    `host-sim demo`, the learner table that picks `host-sim run`'s default learner, and the
 //!    calibration of the teachers' scale.
 //! 3. [`report`]: the reproduction of the paper's section 6. The trial grid and its shards,
-//!    statistics and aggregates, the paper's claims (one pure function each), the figures and
-//!    drawings, and the report's sections.
+//!    statistics and aggregates, the paper's claims (one pure function each) in the paper's
+//!    households and across many generated worlds, the figures and drawings, and the report's
+//!    sections.
 //!
 //! On top of them, [`console`]: the teaching console of `host-sim teach`, a web page on
 //! 127.0.0.1 from which a person teaches the car ([`teach::session`]). The `host-sim` command

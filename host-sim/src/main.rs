@@ -9,7 +9,6 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
-use firmware_core::{LearnerKind, LearnerParams};
 use host_sim::checks;
 use host_sim::teach::experiment::{self, InProcessLink, Mode, RunConfig};
 use host_sim::world::registry;
@@ -17,7 +16,7 @@ use host_sim::world::teacher::StatementSet;
 
 mod cli;
 
-use cli::{out, outln, parse_kind, prepare_out, progress_bar};
+use cli::{out, outln, prepare_out, progress_bar};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -162,7 +161,7 @@ struct RunArgs {
     /// vs a random one), semantic (statements such as "avoid doors"), bc (behaviour cloning on
     /// the teacher's demonstration of the run's first 50 ticks, then frozen), teacher (the
     /// teacher's own policy drives, frozen).
-    #[arg(long, default_value = "action", value_parser = parse_mode)]
+    #[arg(long, default_value = "action")]
     feedback: Mode,
     /// Number of control ticks (0.1 s each), 1 to 10 000 000.
     #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
@@ -179,19 +178,12 @@ struct RunArgs {
     /// 0 to 1000 (default: the scenario's, 0 unless it says otherwise).
     #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::noise))]
     noise: Option<f64>,
-    /// Online learner: ogd, ogd-decaying, averaged-ogd, adagrad or coactive. Default: the one
-    /// docs/learners.md chose for the kind of feedback (`host-sim learners`).
-    #[arg(long, value_parser = parse_kind, conflicts_with = "load_learner")]
-    learner: Option<LearnerKind>,
-    /// Step size, in (0, 1000] (default: the learner's own: 0.01 for the OGD family, 0.1
-    /// AdaGrad, 1 coactive).
-    #[arg(long, allow_negative_numbers = true, conflicts_with = "load_learner",
-          value_parser = checks::flag(checks::step_size))]
-    step: Option<f64>,
+    #[command(flatten)]
+    learner: cli::LearnerArgs,
     /// Start from the learner in this file (parameters and state, as `--save-learner` wrote
     /// it) instead of a fresh one: teach it further, or test it in another household. Online
     /// feedback only; a file of another format version, or a corrupted one, is refused.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["learner", "step"])]
     load_learner: Option<PathBuf>,
     /// After the run, write the learner (parameters and state: the versioned snapshot the car
     /// persists in its flash) to this file, for `--load-learner`.
@@ -200,7 +192,7 @@ struct RunArgs {
     /// What the semantic teacher says: paper (doors, stairs, chairs and the path by cross-track
     /// error, the paper's teacher; the default) or rich (every feature the teacher weighs, also
     /// obstacles and keep right).
-    #[arg(long, default_value = "paper", value_parser = parse_statements)]
+    #[arg(long, default_value = "paper")]
     statements: StatementSet,
     /// Probability that a correction answers at random (a random action, statements towards a
     /// random action, or a coin's preference), drawn from the run's seed. Default 0.
@@ -226,26 +218,11 @@ fn car_link(args: &RunArgs, config: &RunConfig) -> Result<Box<dyn experiment::Ca
     )
 }
 
-fn parse_statements(s: &str) -> Result<StatementSet, String> {
-    StatementSet::from_name(s)
-        .ok_or_else(|| format!("unknown statement set '{s}', expected paper or rich"))
-}
-
-fn parse_mode(s: &str) -> Result<Mode, String> {
-    Mode::from_name(s).ok_or_else(|| {
-        format!("unknown feedback '{s}', expected one of action, preference, semantic, bc, teacher")
-    })
-}
-
 fn run_config(args: &RunArgs) -> Result<RunConfig> {
     let scenario = load_scenario(&args.scenario)?;
-    let kind = args
+    let mut learner = args
         .learner
-        .unwrap_or_else(|| host_sim::teach::learners::default_learner(args.feedback));
-    let mut learner = LearnerParams::new(kind);
-    if let Some(step) = args.step {
-        learner = learner.with_step(step as f32);
-    }
+        .params(|| host_sim::teach::learners::default_learner(args.feedback));
     let initial = match &args.load_learner {
         Some(path) => {
             let snapshot = host_sim::teach::learner_file::load(path)?;

@@ -157,11 +157,11 @@ fn bad_input_is_a_clear_error_and_a_failure_exit() {
         ),
         (
             &["run", "--feedback", "shouting", "--out", out],
-            "unknown feedback 'shouting'",
+            "invalid value 'shouting' for '--feedback <FEEDBACK>'",
         ),
         (
             &["run", "--learner", "sgd", "--out", out],
-            "unknown learner 'sgd'",
+            "[possible values: ogd, ogd-decaying, averaged-ogd, adagrad, coactive]",
         ),
         (
             &["run", "--step", "-0.5", "--out", out],
@@ -717,6 +717,8 @@ fn merge_names_two_grids_in_words() {
             "1",
             "--steps",
             steps,
+            "--worlds",
+            "0",
             "--shard",
             &format!("{index}/40"),
             "--out",

@@ -10,7 +10,7 @@ use host_sim::world::teacher::FeedbackKind;
 
 /// FNV-1a over the CSV bytes of [`golden_config`]. Change it only for an intended change of the
 /// simulation, and say so in the commit.
-const GOLDEN: u64 = 0xe482_92c9_ab06_5456;
+const GOLDEN: u64 = 0x508d_b190_fbd5_4678;
 
 fn golden_config() -> RunConfig {
     let s = Arc::new(registry::load_scenario("doors").unwrap());

@@ -1,13 +1,14 @@
-//! `host-sim reproduce` and `host-sim merge`, at a tiny size (2 trials of 40 steps): every output
-//! exists and parses, the report checks every claim, and merged shards give the same bytes as
-//! one machine.
+//! `host-sim reproduce` and `host-sim merge`, at a tiny size (2 trials of 40 steps, 3 generated
+//! worlds per teacher): every output exists and parses, the report checks every claim, in the
+//! paper's households and across the worlds, and merged shards give the same bytes as one
+//! machine.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use host_sim::report::claims::CLAIMS;
+use host_sim::report::claims::{CLAIMS, SHORT};
 
-const TINY: [&str; 4] = ["--trials", "2", "--steps", "40"];
+const TINY: [&str; 6] = ["--trials", "2", "--steps", "40", "--worlds", "3"];
 
 fn host_sim(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_host-sim"))
@@ -52,9 +53,28 @@ const FIGURES: [&str; 8] = [
     "paths_thresholds",
 ];
 
+/// Every file below `dir`, relative to it, sorted.
+fn files(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                out.push(p.strip_prefix(dir).unwrap().to_path_buf());
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
 fn outputs() -> Vec<PathBuf> {
     let mut v: Vec<PathBuf> = CSVS.iter().map(PathBuf::from).collect();
     v.push("REPORT.md".into());
+    v.push("worlds.csv".into());
     for f in FIGURES {
         v.push(Path::new("figures").join(format!("{f}.png")));
         v.push(Path::new("figures").join(format!("{f}.svg")));
@@ -134,6 +154,75 @@ fn a_short_reproduction_writes_every_output_and_checks_every_claim() {
         assert!(report.contains(&format!("(figures/{f}.png)")), "{f}");
     }
     assert!(report.contains("plain online gradient descent"));
+
+    // The claims across worlds: the three households and the basement, and 3 generated worlds
+    // for each of the 3 teachers; a row per claim; a picture of the worlds where one fails.
+    assert!(
+        report.contains("## The claims across worlds")
+            && report.contains("worlds × 11 settings × 2 trials"),
+        "{report}"
+    );
+    let worlds = std::fs::read_to_string(out.join("worlds.csv")).unwrap();
+    let names: Vec<&str> = worlds
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').next().unwrap())
+        .collect();
+    assert_eq!(names.len(), 4 + 9, "{worlds}");
+    assert_eq!(
+        &names[..5],
+        [
+            "doors",
+            "stairs-right",
+            "stairs-chairs",
+            "basement",
+            "gen-0/doors"
+        ]
+    );
+    assert_eq!(names[12], "gen-2/stairs-chairs");
+    assert!(
+        report.contains("Which order breaks, over the 9 generated worlds"),
+        "{report}"
+    );
+    assert_eq!(
+        worlds.lines().next().unwrap().split(',').count(),
+        4 + 6 + 6 + 2 + 4,
+        "{worlds}"
+    );
+    // Each verdict is the side of its effect size's boundary (effects::effect_holds).
+    for line in worlds.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f[3], "1", "every world was made: {line}");
+        for i in 0..6 {
+            let holds = f[4 + i] == "1";
+            let effect: f64 = f[10 + i].parse().unwrap();
+            assert_eq!(
+                host_sim::report::worlds::effects::effect_holds(i, effect),
+                holds,
+                "claim {} in {}: effect {effect}",
+                i + 1,
+                f[0]
+            );
+        }
+    }
+    for (i, c) in SHORT.iter().enumerate() {
+        let row = report
+            .lines()
+            .find(|l| l.starts_with(&format!("| {} | {c} |", i + 1)))
+            .unwrap_or_else(|| panic!("claim {c:?} missing from the worlds' table"));
+        assert!(row.contains(" of 9 ("), "{row}");
+        // Either it holds in every generated world, or the worlds where it fails are drawn.
+        let holds_everywhere = report.contains(&format!(
+            "**{}. {c}**: holds in every generated world.",
+            i + 1
+        ));
+        let picture = format!("figures/worlds_claim{}.png", i + 1);
+        assert!(
+            holds_everywhere || (report.contains(&picture) && out.join(&picture).exists()),
+            "claim {}",
+            i + 1
+        );
+    }
 }
 
 #[test]
@@ -163,7 +252,10 @@ fn merged_shards_are_byte_identical_to_one_machine() {
     }
     args.extend(["--out", merged.to_str().unwrap()]);
     ok(&host_sim(&args));
-    for f in outputs() {
+    let written = files(&whole);
+    assert_eq!(written, files(&merged), "the same files");
+    assert!(written.contains(&PathBuf::from("worlds.csv")));
+    for f in written {
         let a = std::fs::read(whole.join(&f)).unwrap();
         let b = std::fs::read(merged.join(&f)).unwrap();
         assert!(
@@ -218,6 +310,8 @@ fn merged_shards_are_byte_identical_to_one_machine() {
         "1",
         "--steps",
         "40",
+        "--worlds",
+        "3",
         "--shard",
         "0/3",
         "--out",
@@ -259,6 +353,10 @@ fn bad_options_are_clear_errors() {
         (
             &["reproduce", "--jobs", "0", "--out", out],
             "'--jobs <JOBS>': must be in 1..=1024, got 0",
+        ),
+        (
+            &["reproduce", "--world-trials", "0", "--out", out],
+            "'--world-trials <WORLD_TRIALS>': must be in 1..=100, got 0",
         ),
         (&["merge", "/no/such/dir", "--out", out], "cannot read"),
     ];

@@ -147,7 +147,7 @@ fn bad_link_arguments_are_clear_errors() {
                 "--frame-mode",
                 "x",
             ],
-            "classic or fd",
+            "[possible values: classic, fd]",
         ),
     ] {
         let o = host_sim(&args);
@@ -159,7 +159,7 @@ fn bad_link_arguments_are_clear_errors() {
 
 /// Issue 14, item 3: a car restarted on a flash that lost what it learned used to serve a fresh
 /// learner while `host-sim` finished with exit 0. Now the run stops with a non-zero exit that
-/// names the loss. (The car runs in a thread here; a restart is a new server on the same port
+/// names the loss. (The car runs in a thread here; a restart is a new server on the same socket
 /// and flash file, with a new epoch.)
 #[test]
 fn run_over_a_link_fails_naming_the_loss_when_the_car_loses_its_flash() {
@@ -169,14 +169,11 @@ fn run_over_a_link_fails_naming_the_loss_when_the_car_loses_its_flash() {
     let key_file = tmp.path().join("car.key");
     let key = hil_mock::key::keygen(&key_file).unwrap();
     let flash = tmp.path().join("car.flash");
-    let serve = |port: u16, epoch: u32, stop: Arc<AtomicBool>| {
+    // The car's socket outlives a restart (the thread hands it back): a restart that bound the
+    // port again could find it taken by another process on a busy machine.
+    let serve = |mut link: UdpLink, epoch: u32, stop: Arc<AtomicBool>| {
         let (key, flash) = (key.clone(), flash.clone());
-        let mut link =
-            UdpLink::listen(SocketAddrV4::new(Ipv4Addr::LOCALHOST, port)).expect("the port");
-        let SocketAddr::V4(addr) = link.local_addr().unwrap() else {
-            unreachable!("bound on 127.0.0.1")
-        };
-        let handle = std::thread::spawn(move || {
+        std::thread::spawn(move || {
             let config = CarConfig {
                 mode: FrameMode::Fd,
                 ..CarConfig::default()
@@ -184,11 +181,15 @@ fn run_over_a_link_fails_naming_the_loss_when_the_car_loses_its_flash() {
             let (mut s, _) =
                 Server::with_flash(config, &flash, Open::Existing, &key, epoch).expect("the flash");
             s.run(&mut link, &stop).unwrap();
-        });
-        (addr, handle)
+            link
+        })
+    };
+    let link = UdpLink::listen(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0)).expect("a port");
+    let SocketAddr::V4(addr) = link.local_addr().unwrap() else {
+        unreachable!("bound on 127.0.0.1")
     };
     let stop = Arc::new(AtomicBool::new(false));
-    let (addr, first) = serve(0, 1, stop.clone());
+    let first = serve(link, 1, stop.clone());
     let child = Command::new(env!("CARGO_BIN_EXE_host-sim"))
         .args([
             "run",
@@ -221,14 +222,14 @@ fn run_over_a_link_fails_naming_the_loss_when_the_car_loses_its_flash() {
         std::thread::sleep(Duration::from_millis(1));
     }
     stop.store(true, Ordering::Relaxed);
-    first.join().unwrap();
+    let link = first.join().unwrap();
     let mut bytes = std::fs::read(&flash).unwrap();
     for page in 0..2 {
         bytes[HEADER_SIZE + page * PAGE_SIZE + 40] ^= 0x01;
     }
     std::fs::write(&flash, bytes).unwrap();
     let stop = Arc::new(AtomicBool::new(false));
-    let (_, second) = serve(addr.port(), 2, stop.clone());
+    let second = serve(link, 2, stop.clone());
     let out = child.wait_with_output().unwrap();
     stop.store(true, Ordering::Relaxed);
     second.join().unwrap();

@@ -78,8 +78,8 @@ fn a_user_scenario_with_explicit_weights_and_a_rectangle_loads() {
     assert_eq!((s.teacher.threshold, s.teacher.noise), (0.5, 0.25));
     assert_eq!(s.path.length(), 12.0);
     // The rectangle is seen as the disc on its long axis nearest to the car.
-    let (cx, cy, r) = s.objects[0].disc_seen_from((10.0, 2.5));
-    assert_eq!((cx, cy, r), (3.7, 2.0, 0.3));
+    let (c, r) = s.objects[0].disc_seen_from(&nalgebra::Point2::new(10.0, 2.5));
+    assert_eq!((c.x, c.y, r), (3.7, 2.0, 0.3));
     // Start defaults to the first waypoint facing the second.
     assert_eq!((s.start.x, s.start.y, s.start.theta), (1.0, 1.0, 0.0));
 }

@@ -222,7 +222,7 @@ impl UdpLink {
         Self::new(socket, None, false)
     }
 
-    /// The socket never blocks: `recv` reads what is there and waits in [`wait_readable`].
+    /// The socket never blocks: `recv` reads what is there and waits in `wait_readable`.
     fn new(
         socket: UdpSocket,
         peer: Option<SocketAddr>,

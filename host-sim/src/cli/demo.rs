@@ -1,12 +1,12 @@
 //! `host-sim demo`: the learner against a synthetic teacher, no world.
 
 use anyhow::Result;
-use firmware_core::{LearnerKind, LearnerParams};
+use firmware_core::LearnerKind;
 use host_sim::teach::synthetic::{self, SyntheticConfig};
 
 use host_sim::checks;
 
-use super::parse_kind;
+use super::LearnerArgs;
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct DemoArgs {
@@ -27,12 +27,8 @@ pub(crate) struct DemoArgs {
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true,
           value_parser = checks::flag(checks::probability))]
     noise: f64,
-    /// Online learner: ogd, ogd-decaying, averaged-ogd, adagrad or coactive.
-    #[arg(long, default_value = "averaged-ogd", value_parser = parse_kind)]
-    learner: LearnerKind,
-    /// Step size, in (0, 1000] (default: the learner's own, 0.01 for the OGD family).
-    #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::step_size))]
-    step: Option<f64>,
+    #[command(flatten)]
+    learner: LearnerArgs,
     /// Number of lines of the printed curve (rows cover geometrically growing spans of
     /// rounds), 1 to 1000.
     #[arg(long, default_value_t = 16, allow_negative_numbers = true,
@@ -42,10 +38,7 @@ pub(crate) struct DemoArgs {
 
 pub(crate) fn demo(args: &DemoArgs) -> Result<()> {
     let (steps, rows) = (args.steps as usize, args.rows as usize);
-    let mut learner = LearnerParams::new(args.learner);
-    if let Some(step) = args.step {
-        learner = learner.with_step(step as f32);
-    }
+    let learner = args.learner.params(|| LearnerKind::AveragedOgd);
     let config = SyntheticConfig {
         steps,
         seed: args.seed,
@@ -60,7 +53,7 @@ pub(crate) fn demo(args: &DemoArgs) -> Result<()> {
         config.seed,
         config.threshold,
         100.0 * config.noise,
-        args.learner.name()
+        learner.kind.name()
     )?;
     let report = synthetic::run(&config)?;
     // Row boundaries spaced geometrically, so the fast early learning gets rows of its own.

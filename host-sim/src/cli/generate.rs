@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use rayon::prelude::*;
 
-use host_sim::report::plot::Raster;
+use host_sim::report::plot::MapDrawing;
 use host_sim::world::generator::{DEFAULT_ATTEMPTS, GenerateError, Options, World, generate};
 use host_sim::world::scenario::Scenario;
 use host_sim::world::teacher;
@@ -147,8 +147,8 @@ fn report(world: &World, long: bool) -> Result<()> {
 /// A picture of `scenario` (`world`, loaded from its files, so that the outside is grey): the
 /// map, path and objects, the scenario teacher's lap (purple) and its path follower's (orange
 /// dots).
-fn draw(world: &World, scenario: &Scenario) -> Raster {
-    let mut r = Raster::of_scenario(scenario);
+fn draw(world: &World, scenario: &Scenario) -> MapDrawing {
+    let mut r = MapDrawing::of_scenario(scenario);
     r.trace(&world.contrast().trace);
     r.polyline(&world.lap().trace, [150, 0, 200]);
     r

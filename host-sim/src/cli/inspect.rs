@@ -10,6 +10,7 @@ use host_sim::report::run_folder::RunFolder;
 use host_sim::teach::experiment::{self, RunConfig};
 use host_sim::world::registry;
 use host_sim::world::scenario::Scenario;
+use nalgebra::Point2;
 
 use crate::load_scenario;
 
@@ -126,9 +127,9 @@ pub(crate) fn draw(args: &DrawArgs) -> Result<()> {
         (None, Some(_)) => None,
     };
     if let Some(out) = out {
-        let mut raster = host_sim::report::plot::Raster::of_scenario(&s);
+        let mut raster = host_sim::report::plot::MapDrawing::of_scenario(&s);
         if let Some(rows) = &rows {
-            let trace: Vec<(f64, f64)> = rows.iter().map(|r| (r.x, r.y)).collect();
+            let trace: Vec<Point2<f64>> = rows.iter().map(|r| Point2::new(r.x, r.y)).collect();
             raster.trace(&trace);
         }
         raster.write_png(&out)?;

@@ -18,9 +18,9 @@ pub(crate) struct LinkArgs {
     /// reorder=P,delay=P,max-delay-ms=N,seed=N).
     #[arg(long, requires = "link")]
     pub(crate) faults: Option<String>,
-    /// With --link: the frames the host sends, classic or fd.
-    #[arg(long, requires = "link", default_value = "fd", value_parser = parse_frame_mode)]
-    pub(crate) frame_mode: protocol::isotp::FrameMode,
+    /// With --link: the frames the host sends.
+    #[arg(long, requires = "link", default_value = "fd")]
+    pub(crate) frame_mode: super::Frames,
     /// With --link: wait this long for each answer before sending the request again (ms). The
     /// default suits loopback and CAN; a slow serial line needs more.
     #[arg(long, requires = "link", default_value_t = 20)]
@@ -32,14 +32,6 @@ pub(crate) struct LinkArgs {
     /// With --link: use the public all-zero key (anyone on the bus can drive and teach the car).
     #[arg(long, requires = "link")]
     pub(crate) insecure: bool,
-}
-
-fn parse_frame_mode(s: &str) -> Result<protocol::isotp::FrameMode, String> {
-    match s {
-        "classic" => Ok(protocol::isotp::FrameMode::Classic),
-        "fd" => Ok(protocol::isotp::FrameMode::Fd),
-        _ => Err(format!("unknown frame mode '{s}', expected classic or fd")),
-    }
 }
 
 /// The car over `args.link`, every frame written to `record` (candump format) if given; `None`
@@ -85,7 +77,7 @@ pub(crate) fn remote_car(
     Ok(Some(RemoteCar::new(
         link,
         RemoteConfig {
-            mode: args.frame_mode,
+            mode: args.frame_mode.0,
             try_timeout: std::time::Duration::from_millis(args.try_timeout_ms.max(1)),
             ..RemoteConfig::new(key)
         },

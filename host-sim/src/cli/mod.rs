@@ -5,8 +5,11 @@ use std::io::{IsTerminal, Write};
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use firmware_core::LearnerKind;
+use clap::ValueEnum;
+use clap::builder::PossibleValue;
+use firmware_core::{LearnerKind, LearnerParams};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use protocol::isotp::FrameMode;
 
 /// `println!` that returns the error instead of panicking: `outln!(...)?` in every command, so a
 /// closed pipe (`host-sim list | head -1`) ends the command quietly ([`closed_stdout`]).
@@ -49,14 +52,87 @@ pub(crate) mod link;
 pub(crate) mod reproduce;
 pub(crate) mod teach;
 
-pub(crate) fn parse_kind(s: &str) -> Result<LearnerKind, String> {
-    LearnerKind::from_name(s).ok_or_else(|| {
-        let names: Vec<_> = LearnerKind::ALL.iter().map(|k| k.name()).collect();
-        format!(
-            "unknown learner '{s}', expected one of {}",
-            names.join(", ")
-        )
-    })
+/// An online learner on the command line (`--learner NAME`: the names of
+/// [`LearnerKind::name`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Learner(pub(crate) LearnerKind);
+
+const LEARNERS: [Learner; LearnerKind::ALL.len()] = {
+    let mut out = [Learner(LearnerKind::ALL[0]); LearnerKind::ALL.len()];
+    let mut i = 0;
+    while i < out.len() {
+        out[i] = Learner(LearnerKind::ALL[i]);
+        i += 1;
+    }
+    out
+};
+
+impl ValueEnum for Learner {
+    fn value_variants<'a>() -> &'a [Self] {
+        &LEARNERS
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(self.0.name()))
+    }
+}
+
+/// The learner of `run` and `demo`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct LearnerArgs {
+    /// Online learner. Default: for `run`, the one docs/learners.md chose for the kind of
+    /// feedback (`host-sim learners`); for `demo`, averaged-ogd.
+    #[arg(long)]
+    learner: Option<Learner>,
+    /// Step size, in (0, 1000] (default: the learner's own: 0.01 for the OGD family, 0.1
+    /// AdaGrad, 1 coactive).
+    #[arg(long, allow_negative_numbers = true,
+          value_parser = host_sim::checks::flag(host_sim::checks::step_size))]
+    step: Option<f64>,
+}
+
+impl LearnerArgs {
+    /// The learner asked for, `default` when none was.
+    pub(crate) fn params(&self, default: impl FnOnce() -> LearnerKind) -> LearnerParams {
+        let kind = self.learner.map_or_else(default, |l| l.0);
+        let params = LearnerParams::new(kind);
+        match self.step {
+            Some(step) => params.with_step(step as f32),
+            None => params,
+        }
+    }
+}
+
+/// CAN frames on the command line (`--frame-mode classic|fd`).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Frames(pub(crate) FrameMode);
+
+impl ValueEnum for Frames {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[Frames(FrameMode::Classic), Frames(FrameMode::Fd)]
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(match self.0 {
+            FrameMode::Classic => "classic",
+            FrameMode::Fd => "fd",
+        }))
+    }
+}
+
+/// The size of a trial grid, shared by `reproduce` and `scale-sweep`.
+#[derive(clap::Args, Debug)]
+pub(crate) struct GridArgs {
+    /// Control ticks per trial, 10 to 10 000 000.
+    #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
+          value_parser = host_sim::checks::count_flag(host_sim::report::grid::GRID_STEPS))]
+    pub(crate) steps: u32,
+    /// Seed of trial 0 (trial t has seed SEED + t).
+    #[arg(long, default_value_t = 0)]
+    pub(crate) seed: u64,
+    /// Worker threads (default: one per core). The outputs do not depend on it.
+    #[arg(long, allow_negative_numbers = true, value_parser = host_sim::checks::count_flag(JOBS))]
+    pub(crate) jobs: Option<u32>,
 }
 
 /// Creates the output folder `dir` (and its missing parents) and checks that it is writable.

@@ -6,9 +6,9 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 
 use host_sim::checks;
-use host_sim::report::grid::{GRID_STEPS, TRIALS};
+use host_sim::report::grid::{TRIALS, WORLD_TRIALS, WORLDS};
 
-use super::{prepare_out, progress_bar, worker_pool};
+use super::{GridArgs, prepare_out, progress_bar, worker_pool};
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct ReproduceArgs {
@@ -16,16 +16,8 @@ pub(crate) struct ReproduceArgs {
     #[arg(long, default_value_t = 10, allow_negative_numbers = true,
           value_parser = checks::count_flag(TRIALS))]
     trials: u32,
-    /// Control ticks per trial, 10 to 10 000 000.
-    #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
-          value_parser = checks::count_flag(GRID_STEPS))]
-    steps: u32,
-    /// Seed of trial 0.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Worker threads (default: one per core). The outputs do not depend on it.
-    #[arg(long, allow_negative_numbers = true, value_parser = checks::count_flag(super::JOBS))]
-    jobs: Option<u32>,
+    #[command(flatten)]
+    grid: GridArgs,
     /// Output folder (created if missing).
     #[arg(long, default_value = "out/reproduce")]
     out: PathBuf,
@@ -38,6 +30,16 @@ pub(crate) struct ReproduceArgs {
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true,
           value_parser = checks::flag(checks::teacher_scale))]
     teacher_scale: f64,
+    /// Generated worlds per teacher for the claims across worlds (seeds 0..K, each with each
+    /// teacher, beside the households and the basement), 0 to 100 000; 0 runs the paper's grid
+    /// only.
+    #[arg(long, value_name = "K", default_value_t = host_sim::report::grid::DEFAULT_WORLDS,
+          allow_negative_numbers = true, value_parser = checks::count_flag(WORLDS))]
+    worlds: u32,
+    /// Trials per setting in each world, 1 to 100.
+    #[arg(long, default_value_t = host_sim::report::grid::DEFAULT_WORLD_TRIALS,
+          allow_negative_numbers = true, value_parser = checks::count_flag(WORLD_TRIALS))]
+    world_trials: u32,
 }
 
 #[derive(clap::Args, Debug)]
@@ -47,16 +49,8 @@ pub(crate) struct ScaleSweepArgs {
     #[arg(long, default_value_t = 5, allow_negative_numbers = true,
           value_parser = checks::count_flag(TRIALS))]
     trials: u32,
-    /// Control ticks per trial, 10 to 10 000 000.
-    #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
-          value_parser = checks::count_flag(GRID_STEPS))]
-    steps: u32,
-    /// Seed of trial 0.
-    #[arg(long, default_value_t = 0)]
-    seed: u64,
-    /// Worker threads (default: one per core). The output does not depend on it.
-    #[arg(long, allow_negative_numbers = true, value_parser = checks::count_flag(super::JOBS))]
-    jobs: Option<u32>,
+    #[command(flatten)]
+    grid: GridArgs,
     /// The Markdown file to write.
     #[arg(long, default_value = "out/SCALE_SWEEP.md")]
     out: PathBuf,
@@ -66,14 +60,16 @@ pub(crate) fn reproduce(args: &ReproduceArgs) -> Result<()> {
     use host_sim::report::{self, Options, Shard};
     let o = Options {
         trials: args.trials,
-        steps: args.steps,
-        seed: args.seed,
+        steps: args.grid.steps,
+        seed: args.grid.seed,
         teacher_scale: args.teacher_scale as f32,
+        worlds: args.worlds,
+        world_trials: args.world_trials,
     };
     o.check()?;
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     let out_dir = prepare_out(&args.out)?;
-    let pool = worker_pool(args.jobs)?;
+    let pool = worker_pool(args.grid.jobs)?;
     let jobs = report::jobs(&o, shard).len();
     let bar = progress_bar(
         jobs as u64,
@@ -115,12 +111,14 @@ pub(crate) fn scale_sweep(args: &ScaleSweepArgs) -> Result<()> {
     use host_sim::report::{self, Options, Shard};
     let o = Options {
         trials: args.trials,
-        steps: args.steps,
-        seed: args.seed,
+        steps: args.grid.steps,
+        seed: args.grid.seed,
         teacher_scale: 1.0,
+        worlds: 0,
+        world_trials: 1,
     };
     o.check()?;
-    let pool = worker_pool(args.jobs)?;
+    let pool = worker_pool(args.grid.jobs)?;
     let out_dir = match args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
         Some(parent) => Some(prepare_out(parent)?),
         None => None,
@@ -170,10 +168,9 @@ pub(crate) fn merge(dirs: &[PathBuf], out: &Path) -> Result<()> {
     let report = host_sim::report::finalize(out, &o, &results)?;
     out_dir.keep();
     outln!(
-        "merged {} shard folders ({} trials x {} steps) in {:.1} s",
+        "merged {} shard folders ({}) in {:.1} s",
         dirs.len(),
-        o.trials,
-        o.steps,
+        o.describe(),
         started.elapsed().as_secs_f64()
     )?;
     print_outcome(out, &report)?;

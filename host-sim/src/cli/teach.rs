@@ -4,7 +4,6 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Result, bail};
-use firmware_core::{LearnerKind, LearnerParams};
 use host_sim::checks::{self, MAX_STEPS};
 use host_sim::console::Console;
 use host_sim::teach::config::{Mode, RunConfig};
@@ -15,8 +14,8 @@ use host_sim::teach::session::{
 use host_sim::world::scenario::Scenario;
 use host_sim::world::teacher::FeedbackKind;
 
+use super::LearnerArgs;
 use super::link::{LinkArgs, remote_car};
-use super::parse_kind;
 
 #[derive(clap::Args, Debug)]
 pub(crate) struct TeachArgs {
@@ -24,14 +23,10 @@ pub(crate) struct TeachArgs {
     /// the path of a scenario TOML file.
     #[arg(long, default_value = "doors")]
     scenario: String,
-    /// Online learner: ogd, ogd-decaying, averaged-ogd, adagrad or coactive. Default: the one
-    /// docs/learners.md chose for action feedback (a click is action feedback).
-    #[arg(long, value_parser = parse_kind)]
-    learner: Option<LearnerKind>,
-    /// Step size, in (0, 1000] (default: the learner's own: 0.01 for the OGD family, 0.1
-    /// AdaGrad, 1 coactive).
-    #[arg(long, allow_negative_numbers = true, value_parser = checks::flag(checks::step_size))]
-    step: Option<f64>,
+    // The learner (default: the one docs/learners.md chose for action feedback: a click is
+    // action feedback).
+    #[command(flatten)]
+    learner: LearnerArgs,
     /// Seed of the scenario teacher's noise (its latent-loss line; the learner never sees it).
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -76,13 +71,9 @@ pub(crate) fn teach(args: &TeachArgs, load: fn(&str) -> Result<Scenario>) -> Res
     } else {
         args.scenario.clone()
     };
-    let kind = args.learner.unwrap_or_else(|| {
-        host_sim::teach::learners::default_learner(Mode::Online(FeedbackKind::Action))
-    });
-    let mut learner = LearnerParams::new(kind);
-    if let Some(step) = args.step {
-        learner = learner.with_step(step as f32);
-    }
+    let learner = args
+        .learner
+        .params(|| host_sim::teach::learners::default_learner(Mode::Online(FeedbackKind::Action)));
     let config = RunConfig {
         steps: args.max_ticks.unwrap_or(MAX_STEPS),
         seed: args.seed,
@@ -111,7 +102,7 @@ pub(crate) fn teach(args: &TeachArgs, load: fn(&str) -> Result<Scenario>) -> Res
     };
     outln!(
         "host-sim teach: {name}, the {} learner {}; the session is written to {}",
-        kind.name(),
+        learner.kind.name(),
         match &args.link.link {
             Some(l) => format!("on the car over {l}"),
             None => "in this process".to_string(),

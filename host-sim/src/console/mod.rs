@@ -22,7 +22,7 @@
 //! |---|---|
 //! | `/?token=…` | the page |
 //! | `/console.js`, `/console.css` (`?token=…`) | its script and style |
-//! | `/map.png?token=…` | the household's picture ([`crate::report::plot::Raster`]) |
+//! | `/map.png?token=…` | the household's picture ([`crate::report::plot::MapDrawing`]) |
 //! | `/ws?token=…` | the WebSocket: [`wire`] |
 //!
 //! Every request is checked by [`access::Access`] first (token, `Host`, `Origin`).
@@ -175,15 +175,9 @@ impl Console {
 /// The household's picture as PNG bytes, and where it puts the world.
 pub fn picture(scenario: &Scenario) -> Result<(Vec<u8>, PictureFrame)> {
     let scale = (PICTURE_WIDTH / scenario.map.width().max(1)).clamp(1, 8);
-    let raster = crate::report::plot::Raster::of_scenario_scaled(scenario, scale);
-    let (width, height) = raster.size();
-    let mut png = Vec::new();
-    let mut enc = png::Encoder::new(&mut png, width as u32, height as u32);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    let mut w = enc.write_header().context("map picture")?;
-    w.write_image_data(raster.rgb()).context("map picture")?;
-    w.finish().context("map picture")?;
+    let drawing = crate::report::plot::MapDrawing::of_scenario_scaled(scenario, scale);
+    let (width, height) = drawing.size();
+    let png = drawing.raster().png_bytes().context("map picture")?;
     let origin = scenario.map.origin();
     Ok((
         png,
@@ -191,7 +185,7 @@ pub fn picture(scenario: &Scenario) -> Result<(Vec<u8>, PictureFrame)> {
             width,
             height,
             origin: (origin[0], origin[1]),
-            metres_per_pixel: crate::report::plot::Raster::metres_per_pixel(scenario, scale),
+            metres_per_pixel: crate::report::plot::MapDrawing::metres_per_pixel(scenario, scale),
         },
     ))
 }

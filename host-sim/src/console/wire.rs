@@ -73,7 +73,7 @@ pub fn scene(
                     json!({"rect": {"width": width, "height": height, "yaw": yaw}})
                 }
             };
-            json!({"class": o.class.name(), "x": o.x, "y": o.y, "shape": shape})
+            json!({"class": o.class.name(), "x": o.centre.x, "y": o.centre.y, "shape": shape})
         })
         .collect();
     // Each trajectory as the rear axle's path in the car frame (x forward, y left), from the
@@ -90,6 +90,7 @@ pub fn scene(
         .iter()
         .map(|s| json!({"name": s.name(), "paper": Spoken::PAPER.contains(s)}))
         .collect();
+    let path_points: Vec<[f64; 2]> = scenario.path.points().iter().map(|p| [p.x, p.y]).collect();
     let config = session.config();
     let teacher = config.teacher();
     json!({
@@ -103,7 +104,7 @@ pub fn scene(
             "metres_per_pixel": frame.metres_per_pixel,
         },
         "objects": objects,
-        "path": {"points": scenario.path.points(), "closed": scenario.path.is_closed()},
+        "path": {"points": path_points, "closed": scenario.path.is_closed()},
         "start": [scenario.start.x, scenario.start.y, scenario.start.theta],
         "lattice": lattice,
         "features": Feature::ALL.iter().map(|f| f.name()).collect::<Vec<_>>(),

@@ -66,45 +66,94 @@ impl Aggregate {
     }
 }
 
-/// The aggregate of `setting` over `trials` (all of the same length).
+/// What the report keeps of one trial besides its curves: the numbers every table and claim
+/// uses. The across-worlds experiment keeps only these ([`crate::report::worlds`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrialSummary {
+    /// Mean latent loss of the first tenth of the steps.
+    pub first_loss: f64,
+    /// Mean latent loss of the last tenth (the final loss).
+    pub final_loss: f64,
+    /// Corrections in all.
+    pub corrections: u32,
+    /// Corrections in the first tenth.
+    pub first_tenth_corrections: u32,
+    /// Corrections in the last tenth.
+    pub last_tenth_corrections: u32,
+    /// Laps in all.
+    pub laps: u32,
+    /// Progress along the path at the end (m).
+    pub progress: f64,
+    /// Resets by cause: collision, stuck, lost, blocked.
+    pub resets: [u32; 4],
+}
+
+impl TrialSummary {
+    /// The summary of a trial of at least one step.
+    pub fn of(t: &TrialResult) -> Self {
+        let steps = t.latent.len();
+        let k = tenth(steps);
+        let mean_of =
+            |xs: &[f32]| xs.iter().map(|&x| x as f64).sum::<f64>() / xs.len().max(1) as f64;
+        let last = t.corrections[steps - 1];
+        Self {
+            first_loss: mean_of(&t.latent[..k]),
+            final_loss: mean_of(&t.latent[steps - k..]),
+            corrections: last,
+            first_tenth_corrections: t.corrections[k - 1],
+            last_tenth_corrections: last
+                - if steps > k {
+                    t.corrections[steps - k - 1]
+                } else {
+                    0
+                },
+            laps: t.laps[steps - 1],
+            progress: t.progress[steps - 1],
+            resets: t.reset_counts(),
+        }
+    }
+}
+
+/// The aggregate of `setting` over the summaries of its trials, without curves.
+pub fn aggregate_summaries(setting: Setting, trials: &[TrialSummary]) -> Aggregate {
+    let over = |f: &dyn Fn(&TrialSummary) -> f64| -> (f64, f64) {
+        mean_std(&trials.iter().map(f).collect::<Vec<_>>())
+    };
+    let n = trials.len().max(1) as f64;
+    let mut resets = [0.0; 4];
+    for t in trials {
+        for (r, c) in resets.iter_mut().zip(t.resets) {
+            *r += c as f64 / n;
+        }
+    }
+    Aggregate {
+        first_loss: over(&|t| t.first_loss),
+        final_loss: over(&|t| t.final_loss),
+        total_corrections: over(&|t| t.corrections as f64),
+        first_tenth_corrections: over(&|t| t.first_tenth_corrections as f64),
+        last_tenth_corrections: over(&|t| t.last_tenth_corrections as f64),
+        laps: over(&|t| t.laps as f64),
+        lapped: trials.iter().filter(|t| t.laps > 0).count(),
+        progress: over(&|t| t.progress),
+        resets,
+        ..Aggregate::empty(setting, trials.len())
+    }
+}
+
+/// The aggregate of `setting` over `trials` (all of the same length): its summaries'
+/// ([`aggregate_summaries`]) and the per-step curves.
 pub fn aggregate(setting: Setting, trials: &[&TrialResult]) -> Aggregate {
     let steps = trials.first().map_or(0, |t| t.latent.len());
     if steps == 0 {
         return Aggregate::empty(setting, trials.len());
     }
-    let k = tenth(steps);
     let per_step = |f: &dyn Fn(&TrialResult, usize) -> f64| -> Vec<(f64, f64)> {
         (0..steps)
             .map(|i| mean_std(&trials.iter().map(|t| f(t, i)).collect::<Vec<_>>()))
             .collect()
     };
-    let over = |f: &dyn Fn(&TrialResult) -> f64| -> (f64, f64) {
-        mean_std(&trials.iter().map(|t| f(t)).collect::<Vec<_>>())
-    };
-    let mean_of = |xs: &[f32]| xs.iter().map(|&x| x as f64).sum::<f64>() / xs.len().max(1) as f64;
-    let at = |t: &TrialResult, i: usize| t.corrections[i] as f64;
-    let n = trials.len().max(1) as f64;
-    let mut resets = [0.0; 4];
-    for t in trials {
-        for (r, c) in resets.iter_mut().zip(t.reset_counts()) {
-            *r += c as f64 / n;
-        }
-    }
-    let last = |t: &TrialResult| t.laps[steps - 1];
+    let summaries: Vec<TrialSummary> = trials.iter().map(|t| TrialSummary::of(t)).collect();
     Aggregate {
-        setting,
-        trials: trials.len(),
-        first_loss: over(&|t| mean_of(&t.latent[..k])),
-        final_loss: over(&|t| mean_of(&t.latent[steps - k..])),
-        total_corrections: over(&|t| at(t, steps - 1)),
-        first_tenth_corrections: over(&|t| at(t, k - 1)),
-        last_tenth_corrections: over(&|t| {
-            at(t, steps - 1) - if steps > k { at(t, steps - k - 1) } else { 0.0 }
-        }),
-        laps: over(&|t| last(t) as f64),
-        lapped: trials.iter().filter(|t| last(t) > 0).count(),
-        progress: over(&|t| t.progress[steps - 1]),
-        resets,
         path: trials
             .iter()
             .find(|t| t.trial == 0)
@@ -112,6 +161,7 @@ pub fn aggregate(setting: Setting, trials: &[&TrialResult]) -> Aggregate {
         loss: per_step(&|t, i| t.latent[i] as f64),
         corrections: per_step(&|t, i| t.corrections[i] as f64),
         progress_curve: per_step(&|t, i| t.progress[i]),
+        ..aggregate_summaries(setting, &summaries)
     }
 }
 

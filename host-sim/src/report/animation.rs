@@ -6,7 +6,7 @@
 //! * a header: the tick, the corrections, the laps and the resets so far, and `correction`
 //!   (red) in the frames where the teacher corrected the learner, `reset: CAUSE` where the car
 //!   was put back;
-//! * the map with its path and objects ([`Raster`]), the car's recent trail (orange dots), the
+//! * the map with its path and objects ([`MapDrawing`]), the car's recent trail (orange dots), the
 //!   64 trajectories of the lattice from the car's pose (grey-blue where they are free, pink
 //!   where they collide), the chosen one (thick red-orange), the teacher's (thick green) and a
 //!   red border in the frames of a correction, and the car's footprint (dark blue);
@@ -39,9 +39,10 @@ use anyhow::{Context, Result, anyhow, bail, ensure};
 use firmware_core::ActionIndex;
 use firmware_core::evaluator::Evaluator;
 use firmware_core::lattice::trajectory;
+use nalgebra::Point2;
 
-use super::figure::glyph;
-use super::plot::Raster;
+use super::plot::MapDrawing;
+use super::raster::glyph;
 use super::run_folder::StepRow;
 use crate::world::car::{CarParams, CarState, Pose};
 use crate::world::scenario::Scenario;
@@ -349,9 +350,9 @@ pub fn animation_bytes(
     let free = free_trajectories(scenario, ticks)?;
 
     // The map at the largest whole scale that leaves room for the close-up beside it.
-    let mut raster = Raster::of_scenario_scaled(scenario, 1);
+    let mut raster = MapDrawing::of_scenario_scaled(scenario, 1);
     for s in (2..=8).rev() {
-        let r = Raster::of_scenario_scaled(scenario, s);
+        let r = MapDrawing::of_scenario_scaled(scenario, s);
         let (w, h) = r.size();
         if w + GAP + h.max(MIN_INSET) <= o.max_width {
             raster = r;
@@ -404,7 +405,7 @@ pub fn animation_bytes(
     // The close-up's map: the scale that gives it at least a pixel per pixel.
     let ppm = inset as f64 / INSET_METRES;
     let fine_scale = (ppm * scenario.map.resolution()).ceil().clamp(1.0, 8.0) as usize;
-    let fine = Raster::of_scenario_scaled(scenario, fine_scale);
+    let fine = MapDrawing::of_scenario_scaled(scenario, fine_scale);
     let fine_map = Fine {
         width: fine.size().0 as i64,
         height: fine.size().1 as i64,
@@ -524,12 +525,12 @@ struct Scene {
     /// The lattice's trajectories in the car's frame, each from the rear axle.
     lattice: Vec<Vec<(f64, f64)>>,
     /// The map at the picture's scale.
-    raster: Raster,
+    raster: MapDrawing,
 }
 
 /// The map drawn finer for the close-up, as palette indices.
 struct Fine {
-    raster: Raster,
+    raster: MapDrawing,
     width: i64,
     height: i64,
     px: Vec<u8>,
@@ -630,7 +631,7 @@ impl Frame<'_> {
         // The map: the trail, the chosen trajectory, the footprint, the close-up's square.
         c.clip_to(Some((0, l.map_y, l.map_w, l.map_h)));
         let map_px = |x: f64, y: f64| {
-            let (px, py) = raster.to_px(x, y);
+            let (px, py) = raster.to_px(Point2::new(x, y));
             (px as f64 + 0.5, (py + l.map_y as i64) as f64 + 0.5)
         };
         let trail = &self.ticks[self.k0.saturating_sub(TRAIL)..self.k0];
@@ -687,7 +688,7 @@ impl Frame<'_> {
             for i in 0..l.inset {
                 let wx = centre.0 + (i as f64 + 0.5 - n / 2.0) / ppm;
                 let wy = centre.1 - (j as f64 + 0.5 - n / 2.0) / ppm;
-                let (px, py) = fine.raster.to_px(wx, wy);
+                let (px, py) = fine.raster.to_px(Point2::new(wx, wy));
                 let v = if px >= 0 && py >= 0 && px < fine.width && py < fine.height {
                     fine.px[(py * fine.width + px) as usize]
                 } else {

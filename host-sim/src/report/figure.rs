@@ -2,206 +2,17 @@
 //! SVG and PNG, and map panels composed into one picture.
 //!
 //! The SVG goes through plotters' SVG backend (text as `<text>`). The PNG goes through
-//! [`PngCanvas`], a plotters drawing backend over an RGB buffer whose text is drawn with the
-//! 8×8 glyphs of the `font8x8` crate, scaled: no system font is read, so the PNG bytes are the
-//! same on every machine, like the CSVs.
+//! [`PngBackend`], plotters drawing on the crate's one [`Raster`] (bitmap-font text, the same
+//! bytes on every machine).
 
 use std::path::Path;
 
 use anyhow::{Result, anyhow};
+use base64::Engine as _;
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters_backend::text_anchor::{HPos, VPos};
-use plotters_backend::{
-    BackendColor, BackendCoord, BackendTextStyle, DrawingErrorKind, FontTransform,
-};
 
-/// The PNG canvas's (never produced) error.
-#[derive(Debug)]
-pub struct CanvasError;
-
-impl std::fmt::Display for CanvasError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("canvas error")
-    }
-}
-
-impl std::error::Error for CanvasError {}
-
-/// An RGB raster that plotters draws on, with bitmap-font text.
-#[derive(Clone, Debug)]
-pub struct PngCanvas {
-    width: u32,
-    height: u32,
-    rgb: Vec<u8>,
-}
-
-impl PngCanvas {
-    /// A white canvas.
-    pub fn new(width: u32, height: u32) -> Self {
-        Self {
-            width,
-            height,
-            rgb: vec![255; width as usize * height as usize * 3],
-        }
-    }
-
-    /// Copies an RGB image (`w` × `h`, row-major) with its top-left corner at (`x`, `y`).
-    pub fn blit(&mut self, x: i32, y: i32, w: usize, h: usize, rgb: &[u8]) {
-        for row in 0..h {
-            for col in 0..w {
-                let i = (row * w + col) * 3;
-                if let Some(px) = rgb.get(i..i + 3) {
-                    self.put(x + col as i32, y + row as i32, [px[0], px[1], px[2]], 1.0);
-                }
-            }
-        }
-    }
-
-    fn put(&mut self, x: i32, y: i32, c: [u8; 3], alpha: f64) {
-        if x < 0 || y < 0 || x >= self.width as i32 || y >= self.height as i32 {
-            return;
-        }
-        let i = (y as usize * self.width as usize + x as usize) * 3;
-        let a = alpha.clamp(0.0, 1.0);
-        for k in 0..3 {
-            let old = self.rgb[i + k] as f64;
-            self.rgb[i + k] = (c[k] as f64 * a + old * (1.0 - a)).round() as u8;
-        }
-    }
-
-    /// Draws `text` with its top-left corner at (`x`, `y`), glyphs scaled by `scale`.
-    pub fn text(&mut self, text: &str, x: i32, y: i32, scale: i32, c: [u8; 3]) {
-        self.glyphs(text, (x, y), scale, c, FontTransform::None);
-    }
-
-    fn glyphs(&mut self, text: &str, at: (i32, i32), scale: i32, c: [u8; 3], t: FontTransform) {
-        for (k, ch) in text.chars().enumerate() {
-            let glyph = glyph(ch);
-            for (gy, bits) in glyph.iter().enumerate() {
-                for gx in 0..8 {
-                    if bits >> gx & 1 == 0 {
-                        continue;
-                    }
-                    for sy in 0..scale {
-                        for sx in 0..scale {
-                            // Unrotated offset from the anchor.
-                            let u = (k as i32 * 8 + gx) * scale + sx;
-                            let v = gy as i32 * scale + sy;
-                            let (dx, dy) = t.transform(u, v);
-                            self.put(at.0 + dx, at.1 + dy, c, 1.0);
-                        }
-                    }
-                }
-            }
-        }
-    }
-
-    /// The PNG file's bytes.
-    pub fn png_bytes(&self) -> Result<Vec<u8>> {
-        encode_png(self.width as usize, self.height as usize, &self.rgb)
-    }
-}
-
-/// The 8×8 glyph of `ch`: ASCII, Latin-1 (±, ×, °, …) and Greek (σ, τ, …) from `font8x8`; a few
-/// symbols the reports use drawn here (→, −, ≤, ≥, √, ∞); `?` for anything else.
-pub fn glyph(ch: char) -> [u8; 8] {
-    use font8x8::legacy::{BASIC_LEGACY, GREEK_LEGACY, LATIN_LEGACY};
-    let code = ch as usize;
-    match ch {
-        '\u{0}'..='\u{7f}' => BASIC_LEGACY[code],
-        '\u{a0}'..='\u{ff}' => LATIN_LEGACY[code - 0xa0],
-        '\u{390}'..='\u{3c9}' => GREEK_LEGACY[code - 0x390],
-        '→' => [0x00, 0x08, 0x18, 0x3F, 0x18, 0x08, 0x00, 0x00],
-        '−' => [0x00, 0x00, 0x00, 0x3F, 0x00, 0x00, 0x00, 0x00],
-        '≤' => [0x30, 0x0C, 0x03, 0x0C, 0x30, 0x00, 0x3F, 0x00],
-        '≥' => [0x03, 0x0C, 0x30, 0x0C, 0x03, 0x00, 0x3F, 0x00],
-        '√' => [0x70, 0x10, 0x10, 0x10, 0x13, 0x16, 0x1C, 0x18],
-        '∞' => [0x00, 0x00, 0x36, 0x49, 0x49, 0x36, 0x00, 0x00],
-        _ => BASIC_LEGACY[b'?' as usize],
-    }
-}
-
-/// Encodes an RGB image as PNG.
-pub fn encode_png(width: usize, height: usize, rgb: &[u8]) -> Result<Vec<u8>> {
-    let mut out = Vec::new();
-    {
-        let mut enc = png::Encoder::new(&mut out, width as u32, height as u32);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut w = enc.write_header().map_err(|e| anyhow!("png: {e}"))?;
-        w.write_image_data(rgb).map_err(|e| anyhow!("png: {e}"))?;
-    }
-    Ok(out)
-}
-
-fn glyph_scale(size: f64) -> i32 {
-    ((size / 11.0).round() as i32).max(1)
-}
-
-/// The plotters backend drawing on a [`PngCanvas`].
-#[derive(Debug)]
-pub struct PngTarget<'a>(pub &'a mut PngCanvas);
-
-impl DrawingBackend for PngTarget<'_> {
-    type ErrorType = CanvasError;
-
-    fn get_size(&self) -> (u32, u32) {
-        (self.0.width, self.0.height)
-    }
-
-    fn ensure_prepared(&mut self) -> Result<(), DrawingErrorKind<CanvasError>> {
-        Ok(())
-    }
-
-    fn present(&mut self) -> Result<(), DrawingErrorKind<CanvasError>> {
-        Ok(())
-    }
-
-    fn draw_pixel(
-        &mut self,
-        p: BackendCoord,
-        c: BackendColor,
-    ) -> Result<(), DrawingErrorKind<CanvasError>> {
-        self.0.put(p.0, p.1, [c.rgb.0, c.rgb.1, c.rgb.2], c.alpha);
-        Ok(())
-    }
-
-    fn estimate_text_size<S: BackendTextStyle>(
-        &self,
-        text: &str,
-        style: &S,
-    ) -> Result<(u32, u32), DrawingErrorKind<CanvasError>> {
-        let s = glyph_scale(style.size()) as u32;
-        Ok((8 * s * text.chars().count() as u32, 8 * s))
-    }
-
-    fn draw_text<S: BackendTextStyle>(
-        &mut self,
-        text: &str,
-        style: &S,
-        pos: BackendCoord,
-    ) -> Result<(), DrawingErrorKind<CanvasError>> {
-        let s = glyph_scale(style.size());
-        let (w, h) = (8 * s * text.chars().count() as i32, 8 * s);
-        let dx = match style.anchor().h_pos {
-            HPos::Left => 0,
-            HPos::Right => -w,
-            HPos::Center => -w / 2,
-        };
-        let dy = match style.anchor().v_pos {
-            VPos::Top => 0,
-            VPos::Center => -h / 2,
-            VPos::Bottom => -h,
-        };
-        let t = style.transform();
-        let (ox, oy) = t.transform(dx, dy);
-        let c = style.color().rgb;
-        self.0
-            .glyphs(text, (pos.0 + ox, pos.1 + oy), s, [c.0, c.1, c.2], t);
-        Ok(())
-    }
-}
+use super::raster::{PngBackend, Raster};
 
 /// One curve: points `(x, mean, std)`.
 #[derive(Clone, Debug)]
@@ -386,9 +197,9 @@ pub fn write_chart(
         cols,
     )?;
     write(&stem.with_extension("svg"), svg.as_bytes())?;
-    let mut canvas = PngCanvas::new(size.0, size.1);
+    let mut canvas = Raster::new(size.0 as usize, size.1 as usize, [255, 255, 255]);
     draw_figure(
-        PngTarget(&mut canvas).into_drawing_area(),
+        PngBackend(&mut canvas).into_drawing_area(),
         title,
         panels,
         cols,
@@ -402,12 +213,8 @@ pub fn write_chart(
 pub struct Picture {
     /// Caption under it.
     pub caption: String,
-    /// Width (pixels).
-    pub width: usize,
-    /// Height (pixels).
-    pub height: usize,
-    /// RGB, row-major.
-    pub rgb: Vec<u8>,
+    /// The picture.
+    pub image: Raster,
 }
 
 /// Lays `pictures` out `cols` per row with captions, a title and a legend line, into
@@ -427,19 +234,21 @@ pub fn write_pictures(
     let cols = cols.max(1);
     // Where each picture goes: rows of `cols`, each as tall as its tallest picture.
     let mut at = Vec::with_capacity(pictures.len());
-    let (mut w, mut h) = (PAD, HEAD);
+    // At least as wide as the title (16 px a character) and the legend (8 px).
+    let text = (16 * title.chars().count()).max(8 * legend.chars().count());
+    let (mut w, mut h) = (2 * PAD + text, HEAD);
     for row in pictures.chunks(cols) {
         let mut x = PAD;
         for p in row {
             at.push((x, h));
-            x += p.width.max(8 * p.caption.chars().count()) + PAD;
+            x += p.image.size().0.max(8 * p.caption.chars().count()) + PAD;
         }
         w = w.max(x);
-        h += row.iter().map(|p| p.height).max().unwrap_or(1) + CAPTION + PAD;
+        h += row.iter().map(|p| p.image.size().1).max().unwrap_or(1) + CAPTION + PAD;
     }
-    let mut canvas = PngCanvas::new(w as u32, h as u32);
-    canvas.text(title, PAD as i32, 8, 2, [0, 0, 0]);
-    canvas.text(legend, PAD as i32, 34, 1, [60, 60, 60]);
+    let mut canvas = Raster::new(w, h, [255, 255, 255]);
+    canvas.text(title, PAD as i64, 8, 2, [0, 0, 0]);
+    canvas.text(legend, PAD as i64, 34, 1, [60, 60, 60]);
     let mut svg = format!(
         "<svg width=\"{w}\" height=\"{h}\" viewBox=\"0 0 {w} {h}\" xmlns=\"http://www.w3.org/2000/svg\">\n\
          <rect width=\"{w}\" height=\"{h}\" fill=\"#FFFFFF\"/>\n\
@@ -449,22 +258,17 @@ pub fn write_pictures(
         xml_escape(legend)
     );
     for (p, &(x, y)) in pictures.iter().zip(&at) {
-        canvas.blit(x as i32, y as i32, p.width, p.height, &p.rgb);
-        canvas.text(
-            &p.caption,
-            x as i32,
-            (y + p.height + 8) as i32,
-            1,
-            [0, 0, 0],
-        );
-        let png = encode_png(p.width, p.height, &p.rgb)?;
+        let (width, height) = p.image.size();
+        canvas.blit(x as i64, y as i64, &p.image);
+        canvas.text(&p.caption, x as i64, (y + height + 8) as i64, 1, [0, 0, 0]);
+        let png = p.image.png_bytes()?;
         svg.push_str(&format!(
             "<image x=\"{x}\" y=\"{y}\" width=\"{}\" height=\"{}\" href=\"data:image/png;base64,{}\"/>\n\
              <text x=\"{x}\" y=\"{}\" font-family=\"sans-serif\" font-size=\"14\">{}</text>\n",
-            p.width,
-            p.height,
-            base64(&png),
-            y + p.height + 18,
+            width,
+            height,
+            base64::engine::general_purpose::STANDARD.encode(&png),
+            y + height + 18,
             xml_escape(&p.caption)
         ));
     }
@@ -485,58 +289,9 @@ fn xml_escape(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-/// Standard base64 with padding.
-pub fn base64(bytes: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::with_capacity(bytes.len().div_ceil(3) * 4);
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            chunk.get(1).copied().unwrap_or(0),
-            chunk.get(2).copied().unwrap_or(0),
-        ];
-        let n = (b[0] as u32) << 16 | (b[1] as u32) << 8 | b[2] as u32;
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn base64_matches_the_rfc_vectors() {
-        for (i, o) in [
-            ("", ""),
-            ("f", "Zg=="),
-            ("fo", "Zm8="),
-            ("foo", "Zm9v"),
-            ("foob", "Zm9vYg=="),
-            ("fooba", "Zm9vYmE="),
-            ("foobar", "Zm9vYmFy"),
-        ] {
-            assert_eq!(base64(i.as_bytes()), o);
-        }
-    }
-
-    #[test]
-    fn sigma_and_plus_minus_have_their_own_glyphs() {
-        let q = glyph('?');
-        for c in ['σ', '±', '×', '→', 'τ', '√', '≤'] {
-            assert_ne!(glyph(c), q, "{c}");
-            assert_ne!(glyph(c), [0; 8], "{c}");
-        }
-        assert_eq!(glyph('σ'), font8x8::legacy::GREEK_LEGACY[0x3c3 - 0x390]);
-        assert_eq!(glyph('A'), font8x8::legacy::BASIC_LEGACY[65]);
-        assert_eq!(glyph('€'), q);
-    }
 
     /// Pictures of different widths sit side by side with one gap between them, not in
     /// columns as wide as the widest.
@@ -545,9 +300,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let pic = |width: usize, height: usize| Picture {
             caption: "c".into(),
-            width,
-            height,
-            rgb: vec![0; width * height * 3],
+            image: Raster::new(width, height, [0, 0, 0]),
         };
         let stem = dir.path().join("pics");
         write_pictures(
@@ -562,6 +315,11 @@ mod tests {
         let be = |i: usize| u32::from_be_bytes(png[i..i + 4].try_into().unwrap());
         // Width: 10 + 100 + 10 + 300 + 10; height: 56 + (60 + 28 + 10) + (20 + 28 + 10).
         assert_eq!((be(16), be(20)), (430, 212));
+        // A legend wider than the pictures widens the sheet: 10 + 60 × 8 + 10.
+        write_pictures(&stem, "t", &"l".repeat(60), &[pic(100, 40)], 2).unwrap();
+        let png = std::fs::read(stem.with_extension("png")).unwrap();
+        let be = |i: usize| u32::from_be_bytes(png[i..i + 4].try_into().unwrap());
+        assert_eq!(be(16), 500);
     }
 
     #[test]

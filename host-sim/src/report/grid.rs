@@ -9,8 +9,9 @@ use firmware_core::{LearnerParams, PAPER_STEP};
 use rayon::prelude::*;
 
 use super::paths::{PathTrace, learner_lap};
+use super::worlds::{self, WorldTrial};
 use crate::teach::experiment::{self, MAX_STEPS, Mode, RunConfig, StartJitter};
-use crate::teach::record::RESET_CAUSES;
+use crate::teach::record::{RESET_CAUSES, RunReport};
 use crate::world::registry;
 use crate::world::scenario::Scenario;
 use crate::world::sim::ResetReason;
@@ -39,8 +40,21 @@ pub const MAX_TRIALS: u32 = 10_000;
 pub const TRIALS: std::ops::RangeInclusive<u32> = 1..=MAX_TRIALS;
 /// The steps per trial a grid accepts (`--steps`): at least ten, so that a tenth is a step.
 pub const GRID_STEPS: std::ops::RangeInclusive<u32> = 10..=MAX_STEPS;
-/// Version of the shard files.
-pub const SHARD_FORMAT: u32 = 2;
+/// Version of the shard files (3: the worlds' trials in `worlds.csv`).
+pub const SHARD_FORMAT: u32 = 3;
+/// Generated worlds per teacher by default (`--worlds`): with the paper's grid, what a full
+/// reproduction runs in about a minute on two cores. Measured (README, "Reproducing the
+/// paper"): 22.5 s of CPU time with `--worlds 0`, 60.2 s with 8, 93.1 s with 16, so about 4.1 s
+/// per K; 93 s of CPU is about 47 s on two cores.
+pub const DEFAULT_WORLDS: u32 = 16;
+/// Trials per setting in each world by default (`--world-trials`).
+pub const DEFAULT_WORLD_TRIALS: u32 = 2;
+/// Most generated worlds per teacher.
+pub const MAX_WORLDS: u32 = 100_000;
+/// The generated worlds per teacher a grid accepts (`--worlds`; 0: none).
+pub const WORLDS: std::ops::RangeInclusive<u32> = 0..=MAX_WORLDS;
+/// The trials per setting in a world a grid accepts (`--world-trials`).
+pub const WORLD_TRIALS: std::ops::RangeInclusive<u32> = 1..=100;
 /// The factors of the teachers' scale the scale sweep runs the claims at.
 pub const SWEEP_FACTORS: [f32; 5] = [0.25, 0.5, 1.0, 2.0, 4.0];
 
@@ -157,7 +171,7 @@ pub fn settings() -> Vec<Setting> {
     out
 }
 
-/// The size of the grid, and the teachers' scale.
+/// The size of the grid, the worlds, and the teachers' scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Options {
     /// Trials per setting.
@@ -168,6 +182,10 @@ pub struct Options {
     pub seed: u64,
     /// Every teacher's weights times this (1: the calibrated teachers).
     pub teacher_scale: f32,
+    /// Generated worlds per teacher ([`crate::report::worlds`]; 0: the paper's grid only).
+    pub worlds: u32,
+    /// Trials per setting in each world.
+    pub world_trials: u32,
 }
 
 impl Default for Options {
@@ -177,21 +195,44 @@ impl Default for Options {
             steps: 5_000,
             seed: 0,
             teacher_scale: 1.0,
+            worlds: DEFAULT_WORLDS,
+            world_trials: DEFAULT_WORLD_TRIALS,
         }
     }
 }
 
 impl Options {
-    /// The grid in words: "10 trials × 5000 steps, seed 0" (and the teachers' scale if not 1).
+    /// The grid in words: "10 trials × 5000 steps, seed 0, 16 worlds per teacher × 2 trials" (and
+    /// the teachers' scale if not 1).
     pub fn describe(&self) -> String {
         let mut d = format!(
             "{} trials × {} steps, seed {}",
             self.trials, self.steps, self.seed
         );
+        if self.worlds > 0 {
+            let _ = write!(
+                d,
+                ", {} worlds per teacher × {} trials",
+                self.worlds, self.world_trials
+            );
+        }
         if self.teacher_scale != 1.0 {
             let _ = write!(d, ", teachers' scale × {}", self.teacher_scale);
         }
         d
+    }
+
+    /// The command-line options that make this grid: `--trials 10 --steps 5000 --seed 0
+    /// --worlds 16 --world-trials 2` (and `--teacher-scale F` if not 1).
+    pub fn flags(&self) -> String {
+        let mut f = format!(
+            "--trials {} --steps {} --seed {} --worlds {} --world-trials {}",
+            self.trials, self.steps, self.seed, self.worlds, self.world_trials
+        );
+        if self.teacher_scale != 1.0 {
+            let _ = write!(f, " --teacher-scale {}", self.teacher_scale);
+        }
+        f
     }
 
     /// Checks the numbers.
@@ -201,6 +242,8 @@ impl Options {
         checks::teacher_scale(self.teacher_scale.into()).map_err(named("--teacher-scale"))?;
         checks::count(self.trials.into(), TRIALS).map_err(named("--trials"))?;
         checks::count(self.steps.into(), GRID_STEPS).map_err(named("--steps"))?;
+        checks::count(self.worlds.into(), WORLDS).map_err(named("--worlds"))?;
+        checks::count(self.world_trials.into(), WORLD_TRIALS).map_err(named("--world-trials"))?;
         Ok(())
     }
 }
@@ -261,6 +304,25 @@ pub struct TrialResult {
 }
 
 impl TrialResult {
+    /// The columns of `report`, a run of trial `trial` of setting `setting`.
+    pub fn of_report(
+        setting: usize,
+        trial: u32,
+        report: &RunReport,
+        path: Option<PathTrace>,
+    ) -> Self {
+        Self {
+            setting,
+            trial,
+            latent: report.records.iter().map(|r| r.latent_loss).collect(),
+            corrections: report.records.iter().map(|r| r.corrections).collect(),
+            progress: report.records.iter().map(|r| r.progress).collect(),
+            laps: report.records.iter().map(|r| r.lap).collect(),
+            resets: report.records.iter().map(|r| r.reset).collect(),
+            path,
+        }
+    }
+
     /// Resets by cause: collision, stuck, lost, blocked ([`RESET_CAUSES`]).
     pub fn reset_counts(&self) -> [u32; 4] {
         let mut n = [0u32; 4];
@@ -309,44 +371,117 @@ pub fn run_job(
     } else {
         None
     };
-    Ok(TrialResult {
-        setting,
-        trial,
-        latent: report.records.iter().map(|r| r.latent_loss).collect(),
-        corrections: report.records.iter().map(|r| r.corrections).collect(),
-        progress: report.records.iter().map(|r| r.progress).collect(),
-        laps: report.records.iter().map(|r| r.lap).collect(),
-        resets: report.records.iter().map(|r| r.reset).collect(),
-        path,
-    })
+    Ok(TrialResult::of_report(setting, trial, &report, path))
 }
 
-/// The jobs of `shard`: (setting, trial), in grid order.
-pub fn jobs(o: &Options, shard: Shard) -> Vec<(usize, u32)> {
-    let n = settings().len();
-    (0..n)
-        .flat_map(|s| (0..o.trials).map(move |t| (s, t)))
+/// One run of the grid: a trial of a setting of the paper's grid, or of a setting of a world.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Job {
+    /// Trial `trial` of [`settings`]`[setting]`.
+    Grid {
+        /// Index into [`settings`].
+        setting: usize,
+        /// The trial.
+        trial: u32,
+    },
+    /// Trial `trial` of [`worlds::world_settings`]`[setting]` in [`worlds::worlds`]`[world]`.
+    World {
+        /// Index into the worlds.
+        world: usize,
+        /// Index into the worlds' settings.
+        setting: usize,
+        /// The trial.
+        trial: u32,
+    },
+}
+
+/// The jobs of `shard`, in grid order: the paper's grid setting-major, then the worlds
+/// world-major, setting, trial. Job `k` of the whole list is in shard `k mod n`.
+pub fn jobs(o: &Options, shard: Shard) -> Vec<Job> {
+    let grid = (0..settings().len())
+        .flat_map(|setting| (0..o.trials).map(move |trial| Job::Grid { setting, trial }));
+    let per_world = worlds::world_settings().len();
+    let world_jobs = (0..worlds::worlds(o.worlds).len()).flat_map(move |world| {
+        (0..per_world).flat_map(move |setting| {
+            (0..o.world_trials).map(move |trial| Job::World {
+                world,
+                setting,
+                trial,
+            })
+        })
+    });
+    grid.chain(world_jobs)
         .enumerate()
         .filter(|(k, _)| shard.has(*k))
         .map(|(_, j)| j)
         .collect()
 }
 
+/// What a shard (or the whole grid) produced.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Results {
+    /// The paper's grid's trials, in job order.
+    pub grid: Vec<TrialResult>,
+    /// The worlds' trials, in job order.
+    pub worlds: Vec<WorldTrial>,
+}
+
 /// Runs the jobs of `shard` on the current rayon pool; `done` is called after each job.
-pub fn run_shard(o: &Options, shard: Shard, done: &(dyn Fn() + Sync)) -> Result<Vec<TrialResult>> {
+pub fn run_shard(o: &Options, shard: Shard, done: &(dyn Fn() + Sync)) -> Result<Results> {
     o.check()?;
     let households = load_households()?;
     let all = settings();
     let jobs = jobs(o, shard);
-    let results: Vec<Result<TrialResult>> = jobs
+    let world_list = worlds::worlds(o.worlds);
+    let needed: Vec<usize> = {
+        let mut v: Vec<usize> = jobs
+            .iter()
+            .filter_map(|j| match j {
+                Job::World { world, .. } => Some(*world),
+                Job::Grid { .. } => None,
+            })
+            .collect();
+        v.dedup();
+        v
+    };
+    let scenarios = worlds::Scenarios::load(&world_list, &needed)?;
+    let world_settings = worlds::world_settings();
+    enum Done {
+        Grid(TrialResult),
+        World(WorldTrial),
+    }
+    let results: Vec<Result<Done>> = jobs
         .par_iter()
-        .map(|&(s, t)| {
-            let r = run_job(&households, &all, s, t, o);
+        .map(|&job| {
+            let r = match job {
+                Job::Grid { setting, trial } => {
+                    run_job(&households, &all, setting, trial, o).map(Done::Grid)
+                }
+                Job::World {
+                    world,
+                    setting,
+                    trial,
+                } => worlds::run_world_job(
+                    &scenarios,
+                    &world_list,
+                    &world_settings,
+                    (world, setting, trial),
+                    o,
+                )
+                .map(Done::World),
+            };
             done();
             r
         })
         .collect();
-    results.into_iter().collect()
+    let mut out = Results::default();
+    for r in results {
+        match r? {
+            Done::Grid(t) => out.grid.push(t),
+            Done::World(w) => out.worlds.push(w),
+        }
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -362,11 +497,13 @@ mod tests {
         let o = Options {
             trials: 3,
             steps: 10,
-            seed: 0,
-            teacher_scale: 1.0,
+            worlds: 2,
+            world_trials: 2,
+            ..Options::default()
         };
         let whole = jobs(&o, Shard::WHOLE);
-        assert_eq!(whole.len(), settings().len() * 3);
+        let world_jobs = worlds::worlds(2).len() * worlds::world_settings().len() * 2;
+        assert_eq!(whole.len(), settings().len() * 3 + world_jobs);
         let mut union: Vec<_> = (0..4)
             .flat_map(|i| jobs(&o, Shard { index: i, count: 4 }))
             .collect();

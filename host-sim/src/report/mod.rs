@@ -66,8 +66,11 @@
 //! * [`aggregate`]: one setting across its trials.
 //! * [`claims`]: the paper's claims, one pure function each.
 //! * [`paths`]: the laps drawn on the maps.
-//! * [`figure`], [`plot`], [`panels`]: the charts and the drawings of maps.
+//! * [`raster`]: the one raster and PNG encoder of every picture; [`figure`] (charts, sheets of
+//!   pictures), [`plot`] (the lattice, maps) and [`panels`] (the report's panels) draw on it.
 //! * [`outputs`]: every file of a finished grid; [`sections`]: the report's text.
+//! * [`worlds`]: the claims across worlds: every claim in each of many generated households,
+//!   with intervals (`--worlds K`).
 //! * [`sweep`]: the claims at other scales of the teachers.
 //! * [`registry`]: the paper's experiments by name (`host-sim list`).
 //! * [`run_figure`]: the figure of one `host-sim run`; [`run_folder`]: a run's folder read back;
@@ -77,11 +80,13 @@ pub mod aggregate;
 pub mod animation;
 pub mod claims;
 pub mod figure;
+pub mod files;
 pub mod grid;
 pub mod outputs;
 pub mod panels;
 pub mod paths;
 pub mod plot;
+pub mod raster;
 pub mod registry;
 pub mod run_figure;
 pub mod run_folder;
@@ -89,6 +94,7 @@ pub mod sections;
 pub mod shards;
 pub mod statistics;
 pub mod sweep;
+pub mod worlds;
 
 pub use grid::{Options, Shard, jobs, run_shard};
 pub use outputs::finalize;

@@ -1,7 +1,6 @@
 //! Every file of a finished grid: the CSVs, the figures and the report.
 
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::Path;
 use std::sync::Arc;
 
@@ -9,38 +8,55 @@ use anyhow::{Context, Result};
 
 use super::aggregate::{Aggregate, aggregate_all};
 use super::figure::{self, PALETTE, Panel, Series};
+use super::files::{write_csv, write_file};
 use super::grid::{
-    Group, HOUSEHOLDS, NOISE_CURVES, Options, PATH_TICKS, Setting, TrialResult, load_households,
+    Group, HOUSEHOLDS, NOISE_CURVES, Options, PATH_TICKS, Results, Setting, load_households,
     paper_learner,
 };
 use super::panels::{corrections_panel, loss_panel, map_picture, progress_panel};
 use super::paths::{PathTrace, learner_lap};
+use super::plot::MapDrawing;
 use super::sections::report;
-use super::shards::write_file;
+use super::worlds;
 use crate::teach::experiment::{self, Mode};
 use crate::world::scenario::Scenario;
 use crate::world::teacher::{TeacherSpec, scaled};
 
-fn per_step_csv(head: &str, rows: &[(String, &Aggregate)]) -> String {
-    let mut out = format!(
-        "{head},step,latent_loss_mean,latent_loss_std,corrections_mean,corrections_std,progress_mean,progress_std\n"
-    );
-    for (label, a) in rows {
-        for (i, ((l, c), p)) in a
-            .loss
-            .iter()
-            .zip(&a.corrections)
-            .zip(&a.progress_curve)
-            .enumerate()
-        {
-            let _ = writeln!(
-                out,
-                "{label},{i},{:.6},{:.6},{:.6},{:.6},{:.3},{:.3}",
-                l.0, l.1, c.0, c.1, p.0, p.1
-            );
-        }
-    }
-    out
+/// The per-step CSV of some settings: each row's key columns (`keys`, their values beside
+/// each aggregate), the step, and the means and standard deviations across trials.
+fn per_step_csv(out: &Path, keys: &[&str], rows: &[(Vec<String>, &Aggregate)]) -> Result<()> {
+    let mut header = keys.to_vec();
+    header.extend([
+        "step",
+        "latent_loss_mean",
+        "latent_loss_std",
+        "corrections_mean",
+        "corrections_std",
+        "progress_mean",
+        "progress_std",
+    ]);
+    write_csv(
+        out,
+        &header,
+        rows.iter().flat_map(|(key, a)| {
+            a.loss
+                .iter()
+                .zip(&a.corrections)
+                .zip(&a.progress_curve)
+                .enumerate()
+                .map(move |(i, ((l, c), p))| {
+                    let mut row = key.clone();
+                    row.push(i.to_string());
+                    row.extend(
+                        [l.0, l.1, c.0, c.1]
+                            .iter()
+                            .map(|v| format!("{v:.6}"))
+                            .chain([p.0, p.1].iter().map(|v| format!("{v:.3}"))),
+                    );
+                    row
+                })
+        }),
+    )
 }
 
 /// One experiment's per-step CSV (`NAME.csv`, keyed by `key`) and its figure (`figures/NAME`):
@@ -59,11 +75,8 @@ fn write_curves(
     value: impl Fn(&Aggregate) -> String,
     on_figure: impl Fn(&Aggregate) -> bool,
 ) -> Result<()> {
-    let rows: Vec<(String, &Aggregate)> = aggs.iter().map(|a| (value(a), *a)).collect();
-    write_file(
-        &out.join(format!("{name}.csv")),
-        per_step_csv(key, &rows).as_bytes(),
-    )?;
+    let rows: Vec<(Vec<String>, &Aggregate)> = aggs.iter().map(|a| (vec![value(a)], *a)).collect();
+    per_step_csv(&out.join(format!("{name}.csv")), &[key], &rows)?;
     let curves: Vec<(String, &Aggregate)> = aggs
         .iter()
         .filter(|a| on_figure(a))
@@ -81,41 +94,66 @@ fn write_curves(
     )
 }
 
-fn summary_csv(aggs: &[Aggregate]) -> String {
-    let mut out = String::from(
-        "experiment,household,feedback,sigma,threshold,trials,first_tenth_loss_mean,first_tenth_loss_std,final_loss_mean,final_loss_std,corrections_mean,corrections_std,first_tenth_corrections_mean,last_tenth_corrections_mean,laps_mean,laps_std,trials_lapped,progress_m_mean,progress_m_std,resets_collision_mean,resets_stuck_mean,resets_lost_mean,resets_blocked_mean\n",
-    );
-    for a in aggs {
-        let s = &a.setting;
-        let _ = writeln!(
-            out,
-            "{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3},{},{:.3},{:.3},{:.3},{:.3},{:.3},{:.3}",
-            s.group.name(),
-            s.household,
-            s.mode.name(),
-            s.noise,
-            s.threshold,
-            a.trials,
-            a.first_loss.0,
-            a.first_loss.1,
-            a.final_loss.0,
-            a.final_loss.1,
-            a.total_corrections.0,
-            a.total_corrections.1,
-            a.first_tenth_corrections.0,
-            a.last_tenth_corrections.0,
-            a.laps.0,
-            a.laps.1,
-            a.lapped,
-            a.progress.0,
-            a.progress.1,
-            a.resets[0],
-            a.resets[1],
-            a.resets[2],
-            a.resets[3],
-        );
-    }
-    out
+fn summary_csv(out: &Path, aggs: &[Aggregate]) -> Result<()> {
+    let f6 = |v: f64| format!("{v:.6}");
+    let f3 = |v: f64| format!("{v:.3}");
+    write_csv(
+        out,
+        &[
+            "experiment",
+            "household",
+            "feedback",
+            "sigma",
+            "threshold",
+            "trials",
+            "first_tenth_loss_mean",
+            "first_tenth_loss_std",
+            "final_loss_mean",
+            "final_loss_std",
+            "corrections_mean",
+            "corrections_std",
+            "first_tenth_corrections_mean",
+            "last_tenth_corrections_mean",
+            "laps_mean",
+            "laps_std",
+            "trials_lapped",
+            "progress_m_mean",
+            "progress_m_std",
+            "resets_collision_mean",
+            "resets_stuck_mean",
+            "resets_lost_mean",
+            "resets_blocked_mean",
+        ],
+        aggs.iter().map(|a| {
+            let s = &a.setting;
+            let mut row = vec![
+                s.group.name().to_string(),
+                s.household.to_string(),
+                s.mode.name().to_string(),
+                s.noise.to_string(),
+                s.threshold.to_string(),
+                a.trials.to_string(),
+            ];
+            row.extend(
+                [a.first_loss, a.final_loss]
+                    .iter()
+                    .flat_map(|&(m, sd)| [f6(m), f6(sd)]),
+            );
+            row.extend([
+                f3(a.total_corrections.0),
+                f3(a.total_corrections.1),
+                f3(a.first_tenth_corrections.0),
+                f3(a.last_tenth_corrections.0),
+                f3(a.laps.0),
+                f3(a.laps.1),
+                a.lapped.to_string(),
+                f3(a.progress.0),
+                f3(a.progress.1),
+            ]);
+            row.extend(a.resets.iter().map(|&r| f3(r)));
+            row
+        }),
+    )
 }
 
 /// The teacher's own lap of every household (purple in the path figures).
@@ -137,8 +175,8 @@ fn teacher_laps(
 }
 
 /// Writes every output of a finished grid into `out`; returns the report's text.
-pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<String> {
-    let aggs = aggregate_all(o, results)?;
+pub fn finalize(out: &Path, o: &Options, results: &Results) -> Result<String> {
+    let aggs = aggregate_all(o, &results.grid)?;
     let households = load_households()?;
     let figs = out.join("figures");
     std::fs::create_dir_all(&figs).with_context(|| format!("{}: cannot create", figs.display()))?;
@@ -157,19 +195,14 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
 
     // Variety.
     let variety = find(Group::Variety, &|_| true);
-    let rows: Vec<(String, &Aggregate)> = variety
+    let rows: Vec<(Vec<String>, &Aggregate)> = variety
         .iter()
         .map(|a| {
-            (
-                format!("{},{}", a.setting.household, a.setting.mode.name()),
-                *a,
-            )
+            let s = &a.setting;
+            (vec![s.household.to_string(), s.mode.name().to_string()], *a)
         })
         .collect();
-    write_file(
-        &out.join("variety.csv"),
-        per_step_csv("household,feedback", &rows).as_bytes(),
-    )?;
+    per_step_csv(&out.join("variety.csv"), &["household", "feedback"], &rows)?;
     let by_house = |h: &str, online_only: bool| -> Vec<(String, &Aggregate)> {
         variety
             .iter()
@@ -213,22 +246,27 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
         |a| a.setting.noise.to_string(),
         |a| NOISE_CURVES.contains(&a.setting.noise),
     )?;
-    let mut sweep = String::from(
-        "sigma,trials,final_latent_loss_mean,final_latent_loss_std,corrections_mean,corrections_std\n",
-    );
-    for a in &noise {
-        let _ = writeln!(
-            sweep,
-            "{},{},{:.6},{:.6},{:.3},{:.3}",
-            a.setting.noise,
-            a.trials,
-            a.final_loss.0,
-            a.final_loss.1,
-            a.total_corrections.0,
-            a.total_corrections.1
-        );
-    }
-    write_file(&out.join("noise_sweep.csv"), sweep.as_bytes())?;
+    write_csv(
+        &out.join("noise_sweep.csv"),
+        &[
+            "sigma",
+            "trials",
+            "final_latent_loss_mean",
+            "final_latent_loss_std",
+            "corrections_mean",
+            "corrections_std",
+        ],
+        noise.iter().map(|a| {
+            [
+                a.setting.noise.to_string(),
+                a.trials.to_string(),
+                format!("{:.6}", a.final_loss.0),
+                format!("{:.6}", a.final_loss.1),
+                format!("{:.3}", a.total_corrections.0),
+                format!("{:.3}", a.total_corrections.1),
+            ]
+        }),
+    )?;
     let sweep_series = |label: &str, get: &dyn Fn(&Aggregate) -> (f64, f64), c| Series {
         label: label.to_string(),
         colour: c,
@@ -281,7 +319,7 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
         |a| a.setting.threshold.to_string(),
         |_| true,
     )?;
-    write_file(&out.join("summary.csv"), summary_csv(&aggs).as_bytes())?;
+    summary_csv(&out.join("summary.csv"), &aggs)?;
 
     // Task success.
     let mut panels = Vec::new();
@@ -326,12 +364,20 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
 
     // Paths, every map at one scale.
     let maps: Vec<&Scenario> = HOUSEHOLDS.iter().map(|h| &*households[h]).collect();
-    let scale = crate::report::plot::Raster::common_scale(&maps, 720);
-    let cm = 100.0 * crate::report::plot::Raster::metres_per_pixel(maps[0], scale);
-    let mut paths_csv = String::from("figure,household,who,setting,point,x,y\n");
+    let scale = MapDrawing::common_scale(&maps, 720);
+    let cm = 100.0 * MapDrawing::metres_per_pixel(maps[0], scale);
+    let mut paths_csv: Vec<[String; 7]> = Vec::new();
     let mut add_path = |fig: &str, h: &str, who: &str, key: &str, p: &PathTrace| {
-        for (i, (x, y)) in p.points.iter().enumerate() {
-            let _ = writeln!(paths_csv, "{fig},{h},{who},{key},{i},{x:.4},{y:.4}");
+        for (i, q) in p.points.iter().enumerate() {
+            paths_csv.push([
+                fig.into(),
+                h.into(),
+                who.into(),
+                key.into(),
+                i.to_string(),
+                format!("{:.4}", q.x),
+                format!("{:.4}", q.y),
+            ]);
         }
     };
     let mut pics = Vec::new();
@@ -401,10 +447,27 @@ pub fn finalize(out: &Path, o: &Options, results: &[TrialResult]) -> Result<Stri
             3,
         )?;
     }
-    write_file(&out.join("paths.csv"), paths_csv.as_bytes())?;
+    write_csv(
+        &out.join("paths.csv"),
+        &["figure", "household", "who", "setting", "point", "x", "y"],
+        paths_csv,
+    )?;
 
     let calibration = crate::teach::calibrate::run()?;
-    let report = report(o, &aggs, &calibration, &teacher_paths, &path_rows, cm);
+    let across = if o.worlds > 0 {
+        Some(worlds::section::write(out, &figs, o, &results.worlds)?)
+    } else {
+        None
+    };
+    let report = report(
+        o,
+        &aggs,
+        &calibration,
+        across.as_deref(),
+        &teacher_paths,
+        &path_rows,
+        cm,
+    );
     write_file(&out.join("REPORT.md"), report.as_bytes())?;
     Ok(report)
 }

@@ -3,45 +3,48 @@
 use super::aggregate::Aggregate;
 use super::figure::{PALETTE, Panel, Picture, Series};
 use super::paths::PathTrace;
+use super::plot::MapDrawing;
 use super::statistics::{sampled, smoothed, smoothing_window};
 use crate::world::scenario::Scenario;
 
-pub(crate) fn loss_panel(title: &str, rows: &[(String, &Aggregate)]) -> Panel {
+/// A panel of one curve per row, `points` of each aggregate, coloured in the palette's order.
+fn curves_panel(
+    title: &str,
+    y_label: &str,
+    legend_left: bool,
+    rows: &[(String, &Aggregate)],
+    points: impl Fn(&Aggregate) -> Vec<(f64, f64, f64)>,
+) -> Panel {
     Panel {
         title: title.to_string(),
         x_label: "step".into(),
-        y_label: "latent loss".into(),
+        y_label: y_label.into(),
         band: true,
-        legend_left: false,
+        legend_left,
         series: rows
             .iter()
             .enumerate()
             .map(|(i, (label, a))| Series {
                 label: label.clone(),
                 colour: PALETTE[i % PALETTE.len()],
-                points: smoothed(&a.loss, smoothing_window(a.loss.len())),
+                points: points(a),
             })
             .collect(),
     }
 }
 
+/// Latent loss against the step, smoothed ([`smoothed`]).
+pub(crate) fn loss_panel(title: &str, rows: &[(String, &Aggregate)]) -> Panel {
+    curves_panel(title, "latent loss", false, rows, |a| {
+        smoothed(&a.loss, smoothing_window(a.loss.len()))
+    })
+}
+
+/// Cumulative corrections against the step.
 pub(crate) fn corrections_panel(title: &str, rows: &[(String, &Aggregate)]) -> Panel {
-    Panel {
-        title: title.to_string(),
-        x_label: "step".into(),
-        y_label: "corrections".into(),
-        band: true,
-        legend_left: true,
-        series: rows
-            .iter()
-            .enumerate()
-            .map(|(i, (label, a))| Series {
-                label: label.clone(),
-                colour: PALETTE[i % PALETTE.len()],
-                points: sampled(&a.corrections),
-            })
-            .collect(),
-    }
+    curves_panel(title, "corrections", true, rows, |a| {
+        sampled(&a.corrections)
+    })
 }
 
 /// Progress along the path against the step, and the teacher's own pace (`pace` metres per
@@ -51,31 +54,18 @@ pub(crate) fn progress_panel(
     rows: &[(String, &Aggregate)],
     pace: Option<f64>,
 ) -> Panel {
-    let mut series: Vec<Series> = rows
-        .iter()
-        .enumerate()
-        .map(|(i, (label, a))| Series {
-            label: label.clone(),
-            colour: PALETTE[i % PALETTE.len()],
-            points: sampled(&a.progress_curve),
-        })
-        .collect();
+    let mut panel = curves_panel(title, "progress along the path (m)", true, rows, |a| {
+        sampled(&a.progress_curve)
+    });
     let steps = rows.first().map_or(0, |(_, a)| a.progress_curve.len()) as f64;
     if let Some(p) = pace {
-        series.push(Series {
+        panel.series.push(Series {
             label: "teacher's pace".into(),
             colour: plotters::style::RGBColor(0, 0, 0),
             points: vec![(0.0, 0.0, 0.0), (steps, p * steps, 0.0)],
         });
     }
-    Panel {
-        title: title.to_string(),
-        x_label: "step".into(),
-        y_label: "progress along the path (m)".into(),
-        band: true,
-        legend_left: true,
-        series,
-    }
+    panel
 }
 
 pub(crate) const TEACHER_COLOUR: [u8; 3] = [150, 0, 200];
@@ -88,16 +78,13 @@ pub(crate) fn map_picture(
     teacher: &PathTrace,
     learner: Option<&PathTrace>,
 ) -> Picture {
-    let mut r = crate::report::plot::Raster::of_scenario_scaled(scenario, scale);
+    let mut r = MapDrawing::of_scenario_scaled(scenario, scale);
     r.polyline(&teacher.points, TEACHER_COLOUR);
     if let Some(l) = learner {
         r.polyline(&l.points, LEARNER_COLOUR);
     }
-    let (width, height) = r.size();
     Picture {
         caption,
-        width,
-        height,
-        rgb: r.rgb().to_vec(),
+        image: r.into_raster(),
     }
 }

@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use anyhow::Result;
 use firmware_core::LearnerSnapshot;
+use nalgebra::Point2;
 
 use crate::teach::experiment::{CarLink, InProcessLink};
 use crate::world::check;
@@ -15,7 +16,7 @@ use crate::world::teacher::{Teacher, TeacherSpec};
 #[derive(Clone, Debug, PartialEq)]
 pub struct PathTrace {
     /// Positions of the rear axle, the start first.
-    pub points: Vec<(f64, f64)>,
+    pub points: Vec<Point2<f64>>,
     /// Why it ended: `lap`, a reset reason (`collision`, `stuck`, `lost`, `blocked`) or `ticks`.
     pub end: String,
     /// Mean true latent loss of the actions along it (the setting's teacher, without noise).
@@ -81,7 +82,7 @@ mod tests {
     #[test]
     fn a_path_s_loss_is_shown_with_how_it_ended() {
         let p = |end: &str, n: usize| PathTrace {
-            points: vec![(0.0, 0.0); n + 1],
+            points: vec![Point2::origin(); n + 1],
             end: end.into(),
             mean_latent_loss: 0.0104,
         };

@@ -1,5 +1,5 @@
 //! Drawings: the 64-trajectory lattice as an SVG (`host-sim lattice`), and a scenario's map with
-//! its path, objects and a run's poses as a PNG (`host-sim draw`, [`Raster`]).
+//! its path, objects and a run's poses on a [`Raster`] (`host-sim draw`, [`MapDrawing`]).
 //!
 //! # The lattice drawing
 //!
@@ -12,7 +12,10 @@ use std::path::Path;
 use anyhow::{Result, anyhow};
 use firmware_core::ActionIndex;
 use firmware_core::lattice::{Family, trajectory};
+use nalgebra::{Point2, Vector2};
 use plotters::prelude::*;
+
+use super::raster::Raster;
 
 /// Draws the lattice into the SVG file `out`, with a legend of its two families.
 pub fn lattice_svg(out: &Path) -> Result<()> {
@@ -97,23 +100,21 @@ fn axis_label(v: &f64) -> String {
     if s == "-0.0" { "0.0".into() } else { s }
 }
 
-/// An RGB raster of a scenario's map with its path, objects and start, and optionally a driven
-/// trajectory (`host-sim draw`): free cells white, occupied black, unknown grey; the path blue,
-/// doors brown, stairs red, chairs green, the driven poses orange, the start magenta.
+/// A scenario's map drawn on a [`Raster`] with its path, objects and start, and optionally a
+/// driven trajectory (`host-sim draw`): free cells white, occupied black, unknown grey; the path
+/// blue, doors brown, stairs red, chairs green, the driven poses orange, the start magenta.
 #[derive(Clone, Debug)]
-pub struct Raster {
-    width: usize,
-    height: usize,
+pub struct MapDrawing {
+    raster: Raster,
     /// Pixels per map cell.
     scale: usize,
-    rgb: Vec<u8>,
     grid: std::sync::Arc<crate::world::map::OccupancyGrid>,
 }
 
 const PATH_BLUE: [u8; 3] = [30, 100, 230];
 const DRIVEN: [u8; 3] = [255, 140, 0];
 
-impl Raster {
+impl MapDrawing {
     /// The map of `scenario` with its path, objects and start drawn, at most about 1000 pixels
     /// wide.
     pub fn of_scenario(scenario: &crate::world::scenario::Scenario) -> Self {
@@ -152,10 +153,8 @@ impl Raster {
         let scale = scale.clamp(1, 8);
         let (width, height) = (grid.width() * scale, grid.height() * scale);
         let mut r = Self {
-            width,
-            height,
+            raster: Raster::new(width, height, [0, 0, 0]),
             scale,
-            rgb: vec![0; width * height * 3],
             grid,
         };
         for row in 0..r.grid.height() {
@@ -169,7 +168,7 @@ impl Raster {
                     for dx in 0..scale {
                         let px = col * scale + dx;
                         let py = (r.grid.height() - 1 - row) * scale + dy;
-                        r.put(px as i64, py as i64, c);
+                        r.raster.put(px as i64, py as i64, c);
                     }
                 }
             }
@@ -189,30 +188,28 @@ impl Raster {
             r.line(pts[i], pts[(i + 1) % n], PATH_BLUE);
         }
         let st = scenario.start;
-        r.disc((st.x, st.y), 0.15, [220, 0, 220]);
+        r.disc(st.position(), 0.15, [220, 0, 220]);
         r
     }
 
-    /// The pixel (column, row from the top) of the world point `(x, y)`.
-    pub fn to_px(&self, x: f64, y: f64) -> (i64, i64) {
+    /// The pixel (column, row from the top) of the world point `p`.
+    pub fn to_px(&self, p: Point2<f64>) -> (i64, i64) {
+        let (x, y) = (p.x, p.y);
         // Map yaw is ignored in drawings (all shipped maps have yaw 0).
         let o = self.grid.origin();
         let res = self.grid.resolution() / self.scale as f64;
         let px = ((x - o[0]) / res).floor() as i64;
-        let py = self.height as i64 - 1 - ((y - o[1]) / res).floor() as i64;
+        let py = self.raster.size().1 as i64 - 1 - ((y - o[1]) / res).floor() as i64;
         (px, py)
     }
 
     fn put(&mut self, x: i64, y: i64, c: [u8; 3]) {
-        if x >= 0 && y >= 0 && (x as usize) < self.width && (y as usize) < self.height {
-            let i = (y as usize * self.width + x as usize) * 3;
-            self.rgb[i..i + 3].copy_from_slice(&c);
-        }
+        self.raster.put(x, y, c);
     }
 
-    fn line(&mut self, a: (f64, f64), b: (f64, f64), c: [u8; 3]) {
-        let (x0, y0) = self.to_px(a.0, a.1);
-        let (x1, y1) = self.to_px(b.0, b.1);
+    fn line(&mut self, a: Point2<f64>, b: Point2<f64>, c: [u8; 3]) {
+        let (x0, y0) = self.to_px(a);
+        let (x1, y1) = self.to_px(b);
         let n = (x1 - x0).abs().max((y1 - y0).abs()).max(1);
         for k in 0..=n {
             let x = x0 + (x1 - x0) * k / n;
@@ -223,10 +220,10 @@ impl Raster {
         }
     }
 
-    fn disc(&mut self, p: (f64, f64), radius: f64, c: [u8; 3]) {
+    fn disc(&mut self, p: Point2<f64>, radius: f64, c: [u8; 3]) {
         let res = self.grid.resolution() / self.scale as f64;
         let r = (radius / res).ceil() as i64;
-        let (cx, cy) = self.to_px(p.0, p.1);
+        let (cx, cy) = self.to_px(p);
         for dy in -r..=r {
             for dx in -r..=r {
                 if dx * dx + dy * dy <= r * r {
@@ -239,16 +236,16 @@ impl Raster {
     fn fill_object(&mut self, o: &crate::world::scenario::WorldObject, c: [u8; 3]) {
         use crate::world::scenario::Shape;
         match o.shape {
-            Shape::Disc { radius } => self.disc((o.x, o.y), radius, c),
+            Shape::Disc { radius } => self.disc(o.centre, radius, c),
             Shape::Rect { width, height, yaw } => {
                 let res = self.grid.resolution() / self.scale as f64 / 2.0;
-                let (cs, sn) = (yaw.cos(), yaw.sin());
+                let rotation = crate::world::car::rotation(yaw);
                 let (nu, nv) = ((width / res) as i64, (height / res) as i64);
                 for i in 0..=nu {
                     for j in 0..=nv {
                         let u = -width / 2.0 + width * i as f64 / nu.max(1) as f64;
                         let v = -height / 2.0 + height * j as f64 / nv.max(1) as f64;
-                        let (px, py) = self.to_px(o.x + u * cs - v * sn, o.y + u * sn + v * cs);
+                        let (px, py) = self.to_px(o.centre + rotation * Vector2::new(u, v));
                         self.put(px, py, c);
                     }
                 }
@@ -257,47 +254,44 @@ impl Raster {
     }
 
     /// Draws a polyline through `points` (world frame), two pixels thick.
-    pub fn polyline(&mut self, points: &[(f64, f64)], c: [u8; 3]) {
+    pub fn polyline(&mut self, points: &[Point2<f64>], c: [u8; 3]) {
         for w in points.windows(2) {
             self.line(w[0], w[1], c);
         }
     }
 
-    /// Width and height in pixels.
-    pub fn size(&self) -> (usize, usize) {
-        (self.width, self.height)
+    /// The drawing.
+    pub fn raster(&self) -> &Raster {
+        &self.raster
     }
 
-    /// The pixels, RGB, row-major from the top.
-    pub fn rgb(&self) -> &[u8] {
-        &self.rgb
+    /// The drawing, handed over.
+    pub fn into_raster(self) -> Raster {
+        self.raster
     }
 
     /// Marks driven positions (world frame).
-    pub fn trace(&mut self, points: &[(f64, f64)]) {
-        for &(x, y) in points {
-            let (px, py) = self.to_px(x, y);
+    pub fn trace(&mut self, points: &[Point2<f64>]) {
+        for &p in points {
+            let (px, py) = self.to_px(p);
             for d in [(0, 0), (1, 0), (0, 1), (-1, 0), (0, -1)] {
                 self.put(px + d.0, py + d.1, DRIVEN);
             }
         }
     }
 
-    /// Writes the raster as a PNG file.
+    /// Its size in pixels: width, height.
+    pub fn size(&self) -> (usize, usize) {
+        self.raster.size()
+    }
+
+    /// Its pixels, RGB, row by row from the top.
+    pub fn rgb(&self) -> &[u8] {
+        self.raster.rgb()
+    }
+
+    /// Writes the drawing as a PNG file.
     pub fn write_png(&self, out: &Path) -> Result<()> {
-        let file = std::fs::File::create(out).map_err(|e| anyhow!("{}: {e}", out.display()))?;
-        let mut enc = png::Encoder::new(
-            std::io::BufWriter::new(file),
-            self.width as u32,
-            self.height as u32,
-        );
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut w = enc
-            .write_header()
-            .map_err(|e| anyhow!("{}: {e}", out.display()))?;
-        w.write_image_data(&self.rgb)
-            .map_err(|e| anyhow!("{}: {e}", out.display()))?;
-        Ok(())
+        self.raster.write_png(out)
     }
 }

@@ -19,10 +19,11 @@ pub fn scale_sweep(
     for &f in factors {
         let of = Options {
             teacher_scale: f,
+            worlds: 0,
             ..*o
         };
         let results = run_shard(&of, Shard::WHOLE, done)?;
-        let aggs = aggregate_all(&of, &results)?;
+        let aggs = aggregate_all(&of, &results.grid)?;
         out.push((f, verdicts(&of, &aggs)));
     }
     Ok(out)

@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use anyhow::{Result, ensure};
 use firmware_core::{LearnerParams, LearnerSnapshot};
+use nalgebra::Point2;
 
 use crate::world::car::Pose;
 use crate::world::scenario::Scenario;
@@ -22,6 +23,15 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// Every mode, in the order of the command line's list.
+    pub const ALL: [Mode; 5] = [
+        Mode::Online(FeedbackKind::Action),
+        Mode::Online(FeedbackKind::Preference),
+        Mode::Online(FeedbackKind::Semantic),
+        Mode::BehaviourCloning,
+        Mode::Teacher,
+    ];
+
     /// The name used on the command line: action, preference, semantic, bc, teacher.
     pub const fn name(self) -> &'static str {
         match self {
@@ -33,14 +43,18 @@ impl Mode {
 
     /// The mode called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        match name {
-            "bc" => Some(Mode::BehaviourCloning),
-            "teacher" => Some(Mode::Teacher),
-            _ => FeedbackKind::ALL
-                .into_iter()
-                .find(|k| k.name() == name)
-                .map(Mode::Online),
-        }
+        Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// `--feedback NAME` on the command line.
+impl clap::ValueEnum for Mode {
+    fn value_variants<'a>() -> &'a [Self] {
+        &Self::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.name()))
     }
 }
 
@@ -115,12 +129,12 @@ impl StartJitter {
         let car = crate::world::car::CarParams::MUSHR;
         let mut scale = 1.0;
         for _ in 0..5 {
+            // Sideways in the start's frame (y left), then turned.
             let d = u * self.lateral * scale;
-            let pose = Pose {
-                x: st.x - d * libm::sin(st.theta),
-                y: st.y + d * libm::cos(st.theta),
-                theta: st.theta + v * self.heading * scale,
-            };
+            let pose = Pose::at(
+                st.to_world(Point2::new(0.0, d)),
+                st.theta + v * self.heading * scale,
+            );
             if !car.footprint_hits(&scenario.map, pose) {
                 return pose;
             }

@@ -112,33 +112,44 @@ impl RunReport {
         (self.mean_loss(0..k), self.mean_loss(n.saturating_sub(k)..n))
     }
 
-    /// Writes the per-step CSV.
-    pub fn write_csv<W: Write>(&self, mut w: W) -> std::io::Result<()> {
-        writeln!(
-            w,
-            "step,action,teacher_action,latent_loss,corrected,corrections,collision,reset,lap,progress,x,y,theta"
-        )?;
+    /// Writes the per-step CSV (through the `csv` crate; numbers as Rust prints them, the
+    /// progress to the millimetre).
+    pub fn write_csv<W: Write>(&self, w: W) -> std::io::Result<()> {
+        let mut w = csv::Writer::from_writer(w);
+        w.write_record([
+            "step",
+            "action",
+            "teacher_action",
+            "latent_loss",
+            "corrected",
+            "corrections",
+            "collision",
+            "reset",
+            "lap",
+            "progress",
+            "x",
+            "y",
+            "theta",
+        ])?;
         let idx = |a: Option<ActionIndex>| a.map(|a| a.get().to_string()).unwrap_or_default();
         for r in &self.records {
-            writeln!(
-                w,
-                "{},{},{},{},{},{},{},{},{},{:.3},{},{},{}",
-                r.step,
+            w.write_record([
+                r.step.to_string(),
                 idx(r.action),
                 idx(r.teacher_action),
-                r.latent_loss,
-                u8::from(r.corrected),
-                r.corrections,
-                u8::from(r.collision),
-                r.reset.map_or("", |x| x.name()),
-                r.lap,
-                r.progress,
-                r.x,
-                r.y,
-                r.theta
-            )?;
+                r.latent_loss.to_string(),
+                u8::from(r.corrected).to_string(),
+                r.corrections.to_string(),
+                u8::from(r.collision).to_string(),
+                r.reset.map_or("", |x| x.name()).to_string(),
+                r.lap.to_string(),
+                format!("{:.3}", r.progress),
+                r.x.to_string(),
+                r.y.to_string(),
+                r.theta.to_string(),
+            ])?;
         }
-        Ok(())
+        w.flush()
     }
 
     /// The CSV as bytes.

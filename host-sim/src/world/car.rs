@@ -19,9 +19,12 @@
 //! the arc's curvature, so the plant's longer wheelbase (0.33 m vs the lattice's 0.29 m) costs
 //! nothing: steering is computed for the plant.
 //!
-//! All transcendental functions go through `libm`, so results are the same on every host.
+//! Transforms are nalgebra's ([`Pose::isometry`]: an `Isometry2` of the position and the
+//! heading's `UnitComplex`, built from libm's cosine and sine as firmware-core's lattice does);
+//! all transcendental functions go through `libm`, so results are the same on every host.
 
 use firmware_core::lattice::Trajectory;
+use nalgebra::{Isometry2, Point2, UnitComplex, Vector2};
 
 use crate::world::map::OccupancyGrid;
 
@@ -37,20 +40,51 @@ pub struct Pose {
 }
 
 impl Pose {
+    /// The pose at `position` facing `theta`.
+    pub fn at(position: Point2<f64>, theta: f64) -> Self {
+        Self {
+            x: position.x,
+            y: position.y,
+            theta,
+        }
+    }
+
+    /// The position (m).
+    #[inline]
+    pub fn position(&self) -> Point2<f64> {
+        Point2::new(self.x, self.y)
+    }
+
+    /// The heading as a rotation.
+    #[inline]
+    pub fn rotation(&self) -> UnitComplex<f64> {
+        rotation(self.theta)
+    }
+
+    /// The transform from this pose's frame (x forward, y left) to the world's.
+    #[inline]
+    pub fn isometry(&self) -> Isometry2<f64> {
+        Isometry2::from_parts(self.position().coords.into(), self.rotation())
+    }
+
     /// The world point of a point given in this pose's frame.
     #[inline]
-    pub fn to_world(&self, px: f64, py: f64) -> (f64, f64) {
-        let (s, c) = (libm::sin(self.theta), libm::cos(self.theta));
-        (self.x + px * c - py * s, self.y + px * s + py * c)
+    pub fn to_world(&self, p: Point2<f64>) -> Point2<f64> {
+        self.isometry() * p
     }
 
     /// A world point in this pose's frame.
     #[inline]
-    pub fn to_local(&self, wx: f64, wy: f64) -> (f64, f64) {
-        let (s, c) = (libm::sin(self.theta), libm::cos(self.theta));
-        let (dx, dy) = (wx - self.x, wy - self.y);
-        (dx * c + dy * s, -dx * s + dy * c)
+    pub fn to_local(&self, p: Point2<f64>) -> Point2<f64> {
+        self.isometry().inverse_transform_point(&p)
     }
+}
+
+/// The rotation by `angle` (rad), from libm's cosine and sine (not simba's, which follow the
+/// features a build unifies).
+#[inline]
+pub fn rotation(angle: f64) -> UnitComplex<f64> {
+    UnitComplex::from_cos_sin_unchecked(libm::cos(angle), libm::sin(angle))
 }
 
 /// Wraps an angle into `[−π, π]`.
@@ -106,23 +140,23 @@ impl CarParams {
         let step = map.resolution() / 2.0;
         let nx = libm::ceil(self.length / step) as usize;
         let ny = libm::ceil(self.width / step) as usize;
-        let (s, c) = (libm::sin(pose.theta), libm::cos(pose.theta));
-        let cx = pose.x + self.center_offset * c;
-        let cy = pose.y + self.center_offset * s;
+        let iso = pose.isometry();
+        let centre = iso * Point2::new(self.center_offset, 0.0);
         // Every sample is within the half-diagonal of the centre, so its cell is at most
         // ⌊half-diagonal / resolution⌋ + 1 cells from the centre's along each axis (one more for
         // rounding). If all cells that near are free, no sample can hit: the same answer as the
         // loop below, without it.
         let reach = libm::sqrt(self.length * self.length + self.width * self.width) / 2.0;
         let near = (reach / map.resolution()).floor() + 2.0;
-        if (map.clearance_cells(cx, cy) as f64) > near {
+        if (map.clearance_cells(centre.x, centre.y) as f64) > near {
             return false;
         }
         for i in 0..=nx {
             let u = -self.length / 2.0 + self.length * i as f64 / nx as f64;
             for j in 0..=ny {
                 let v = -self.width / 2.0 + self.width * j as f64 / ny as f64;
-                if map.is_blocked(cx + u * c - v * s, cy + u * s + v * c) {
+                let p = centre + iso.rotation * Vector2::new(u, v);
+                if map.is_blocked(p.x, p.y) {
                     return true;
                 }
             }
@@ -178,7 +212,7 @@ impl CarState {
 #[derive(Clone, Debug)]
 pub struct Tracker {
     /// Polyline: the start pose then the trajectory's poses, world frame.
-    points: Vec<(f64, f64)>,
+    points: Vec<Point2<f64>>,
     /// Length of each polyline segment.
     lens: Vec<f64>,
     /// Heading at the end, for the straight extension.
@@ -192,18 +226,13 @@ impl Tracker {
 
     /// Fixes `trajectory` in the world at `origin` (the pose where it was chosen).
     pub fn new(origin: Pose, trajectory: &Trajectory) -> Self {
+        let iso = origin.isometry();
         let mut points = Vec::with_capacity(trajectory.poses().len() + 1);
-        points.push((origin.x, origin.y));
+        points.push(origin.position());
         for p in trajectory.poses() {
-            points.push(origin.to_world(p.x as f64, p.y as f64));
+            points.push(iso * Point2::new(p.x as f64, p.y as f64));
         }
-        let lens = points
-            .windows(2)
-            .map(|w| {
-                let (dx, dy) = (w[1].0 - w[0].0, w[1].1 - w[0].1);
-                libm::sqrt(dx * dx + dy * dy)
-            })
-            .collect();
+        let lens = points.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
         Self {
             points,
             lens,
@@ -220,21 +249,20 @@ impl Tracker {
     /// Steering command for the car at `pose`.
     pub fn steering(&self, pose: Pose, p: &CarParams) -> f64 {
         // Project the rear axle onto the polyline: (segment, arc length).
+        let at = pose.position();
         let mut best = (0usize, 0.0f64, f64::INFINITY);
         let mut s0 = 0.0;
         let lens = &self.lens;
         for i in 0..self.points.len() - 1 {
-            let (a, b) = (self.points[i], self.points[i + 1]);
-            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-            let len2 = dx * dx + dy * dy;
+            let (a, d) = (self.points[i], self.points[i + 1] - self.points[i]);
+            let len2 = d.norm_squared();
             let len = lens[i];
             let t = if len2 > 0.0 {
-                (((pose.x - a.0) * dx + (pose.y - a.1) * dy) / len2).clamp(0.0, 1.0)
+                ((at - a).dot(&d) / len2).clamp(0.0, 1.0)
             } else {
                 0.0
             };
-            let (qx, qy) = (a.0 + t * dx, a.1 + t * dy);
-            let d2 = (pose.x - qx) * (pose.x - qx) + (pose.y - qy) * (pose.y - qy);
+            let d2 = (at - (a + d * t)).norm_squared();
             if d2 < best.2 {
                 best = (i, s0 + t * len, d2);
             }
@@ -244,11 +272,7 @@ impl Tracker {
         let target_s = best.1 + Self::LOOKAHEAD;
         let goal = if target_s >= total {
             let last = self.points[self.points.len() - 1];
-            let extra = target_s - total;
-            (
-                last.0 + extra * libm::cos(self.end_heading),
-                last.1 + extra * libm::sin(self.end_heading),
-            )
+            last + rotation(self.end_heading) * Vector2::new(target_s - total, 0.0)
         } else {
             let mut s = 0.0;
             let mut g = self.points[self.points.len() - 1];
@@ -260,20 +284,20 @@ impl Tracker {
                         0.0
                     };
                     let (a, b) = (self.points[i], self.points[i + 1]);
-                    g = (a.0 + t * (b.0 - a.0), a.1 + t * (b.1 - a.1));
+                    g = a + (b - a) * t;
                     break;
                 }
                 s += len;
             }
             g
         };
-        let (gx, gy) = pose.to_local(goal.0, goal.1);
-        let d2 = gx * gx + gy * gy;
+        let local = pose.to_local(goal);
+        let d2 = local.coords.norm_squared();
         if d2 < 1e-12 {
             return 0.0;
         }
         // Pure pursuit: curvature 2·y / d².
-        let k = 2.0 * gy / d2;
+        let k = 2.0 * local.y / d2;
         libm::atan(k * p.wheelbase)
     }
 }
@@ -372,8 +396,9 @@ mod tests {
             y: 2.0,
             theta: 0.7,
         };
-        let (wx, wy) = pose.to_world(0.3, -0.2);
-        let (lx, ly) = pose.to_local(wx, wy);
+        let w = pose.to_world(Point2::new(0.3, -0.2));
+        let l = pose.to_local(w);
+        let (lx, ly) = (l.x, l.y);
         assert!((lx - 0.3).abs() < 1e-12 && (ly + 0.2).abs() < 1e-12);
         assert!(
             (wrap_angle(3.0 * std::f64::consts::PI).abs() - std::f64::consts::PI).abs() < 1e-12

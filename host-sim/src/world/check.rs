@@ -21,6 +21,7 @@ use std::sync::Arc;
 
 use firmware_core::ActionIndex;
 use firmware_core::observation::Observation;
+use nalgebra::Point2;
 use thiserror::Error;
 
 use crate::world::scenario::Scenario;
@@ -79,7 +80,7 @@ pub struct Drive {
     pub end: LapEnd,
     /// Positions of the rear axle: the start, then after every tick but one that reset the car
     /// (which puts it back at the start).
-    pub trace: Vec<(f64, f64)>,
+    pub trace: Vec<Point2<f64>>,
     /// Where the car stood at the start of the tick that reset it, or at the end of the drive.
     pub last: Place,
     /// Progress along the path at the end (m; see [`Episode::progress`]).
@@ -102,8 +103,7 @@ pub fn drive_lap<E>(
             station: e.station(),
         }
     };
-    let start = episode.car().pose;
-    let mut trace = vec![(start.x, start.y)];
+    let mut trace = vec![episode.car().pose.position()];
     for tick in 0..max_ticks {
         let action = policy(tick, &episode.observe())?;
         let before = place(&episode);
@@ -112,8 +112,7 @@ pub fn drive_lap<E>(
             Some(_) if r.lap => Some(LapEnd::Lap),
             Some(reason) => Some(LapEnd::Reset(reason)),
             None => {
-                let p = episode.car().pose;
-                trace.push((p.x, p.y));
+                trace.push(episode.car().pose.position());
                 r.lap.then_some(LapEnd::Lap)
             }
         };
@@ -142,7 +141,7 @@ pub struct TeacherLap {
     /// Ticks it took.
     pub ticks: u32,
     /// The positions it drove through, the start first.
-    pub trace: Vec<(f64, f64)>,
+    pub trace: Vec<Point2<f64>>,
 }
 
 /// Why the teacher's policy did not complete a lap.

@@ -1,19 +1,25 @@
 //! The reference path: a polyline of waypoints in the world frame, open or a closed loop, with
 //! arc-length parametrisation, projection and look-ahead.
 //!
+//! Points are nalgebra's `Point2<f64>`, segments `Vector2<f64>`.
+//!
 //! ```
 //! use host_sim::world::path::RefPath;
-//! let square = RefPath::new(vec![(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)], true).unwrap();
+//! use nalgebra::Point2;
+//! let corners = [(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)];
+//! let square = RefPath::new(corners.map(|(x, y)| Point2::new(x, y)).to_vec(), true).unwrap();
 //! assert_eq!(square.length(), 16.0);
-//! let (x, y, heading) = square.point_at(5.0);
-//! assert_eq!((x, y), (4.0, 1.0));
+//! let (p, heading) = square.point_at(5.0);
+//! assert_eq!(p, Point2::new(4.0, 1.0));
 //! assert!((heading - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
 //! ```
+
+use nalgebra::Point2;
 
 /// A polyline path with cumulative arc lengths.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RefPath {
-    points: Vec<(f64, f64)>,
+    points: Vec<Point2<f64>>,
     /// Arc length at the start of each segment, and the total at the end.
     cumulative: Vec<f64>,
     headings: Vec<f64>,
@@ -45,12 +51,12 @@ impl std::fmt::Display for PathError {
 
 impl RefPath {
     /// A path through `points`; `closed` joins the last point back to the first.
-    pub fn new(points: Vec<(f64, f64)>, closed: bool) -> Result<Self, PathError> {
+    pub fn new(points: Vec<Point2<f64>>, closed: bool) -> Result<Self, PathError> {
         if points.len() < 2 || closed && points.len() < 3 {
             return Err(PathError::TooFew);
         }
         for (i, p) in points.iter().enumerate() {
-            if !(p.0.is_finite() && p.1.is_finite()) {
+            if !(p.x.is_finite() && p.y.is_finite()) {
                 return Err(PathError::NotFinite(i));
             }
         }
@@ -60,15 +66,13 @@ impl RefPath {
         let mut headings = Vec::with_capacity(segs);
         let mut s = 0.0;
         for i in 0..segs {
-            let a = points[i];
-            let b = points[(i + 1) % n];
-            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-            let len = libm::sqrt(dx * dx + dy * dy);
+            let d = points[(i + 1) % n] - points[i];
+            let len = d.norm();
             if len < 1e-3 {
                 return Err(PathError::Repeated((i + 1) % n));
             }
             cumulative.push(s);
-            headings.push(libm::atan2(dy, dx));
+            headings.push(libm::atan2(d.y, d.x));
             s += len;
         }
         cumulative.push(s);
@@ -91,7 +95,7 @@ impl RefPath {
     }
 
     /// The waypoints.
-    pub fn points(&self) -> &[(f64, f64)] {
+    pub fn points(&self) -> &[Point2<f64>] {
         &self.points
     }
 
@@ -99,7 +103,7 @@ impl RefPath {
         self.headings.len()
     }
 
-    fn segment(&self, i: usize) -> ((f64, f64), (f64, f64)) {
+    fn segment(&self, i: usize) -> (Point2<f64>, Point2<f64>) {
         let n = self.points.len();
         (self.points[i], self.points[(i + 1) % n])
     }
@@ -126,22 +130,20 @@ impl RefPath {
     }
 
     /// The point at arc length `s` (wrapped) and the path's heading there.
-    pub fn point_at(&self, s: f64) -> (f64, f64, f64) {
+    pub fn point_at(&self, s: f64) -> (Point2<f64>, f64) {
         let s = self.wrap(s);
         let i = self.segment_at(s);
-        let ((ax, ay), (bx, by)) = self.segment(i);
+        let (a, b) = self.segment(i);
         let len = self.cumulative[i + 1] - self.cumulative[i];
         let t = ((s - self.cumulative[i]) / len).clamp(0.0, 1.0);
-        (ax + t * (bx - ax), ay + t * (by - ay), self.headings[i])
+        (a + (b - a) * t, self.headings[i])
     }
 
-    fn project_on(&self, i: usize, p: (f64, f64)) -> (f64, f64) {
-        let ((ax, ay), (bx, by)) = self.segment(i);
-        let (dx, dy) = (bx - ax, by - ay);
-        let len2 = dx * dx + dy * dy;
-        let t = (((p.0 - ax) * dx + (p.1 - ay) * dy) / len2).clamp(0.0, 1.0);
-        let (qx, qy) = (ax + t * dx, ay + t * dy);
-        let d2 = (p.0 - qx) * (p.0 - qx) + (p.1 - qy) * (p.1 - qy);
+    fn project_on(&self, i: usize, p: &Point2<f64>) -> (f64, f64) {
+        let (a, b) = self.segment(i);
+        let d = b - a;
+        let t = ((p - a).dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
+        let d2 = (p - (a + d * t)).norm_squared();
         (
             self.cumulative[i] + t * (self.cumulative[i + 1] - self.cumulative[i]),
             d2,
@@ -150,7 +152,7 @@ impl RefPath {
 
     /// The arc length of the point of the path nearest to `p`, and the distance to it.
     /// Ties go to the lowest arc length.
-    pub fn project(&self, p: (f64, f64)) -> (f64, f64) {
+    pub fn project(&self, p: &Point2<f64>) -> (f64, f64) {
         let mut best = (0.0, f64::INFINITY);
         for i in 0..self.segment_count() {
             let (s, d2) = self.project_on(i, p);
@@ -163,7 +165,7 @@ impl RefPath {
 
     /// Like [`RefPath::project`], but only onto the part of the path between `s − behind` and
     /// `s + ahead` (wrapped on a loop): the projection cannot jump to a neighbouring hallway.
-    pub fn project_near(&self, p: (f64, f64), s: f64, behind: f64, ahead: f64) -> (f64, f64) {
+    pub fn project_near(&self, p: &Point2<f64>, s: f64, behind: f64, ahead: f64) -> (f64, f64) {
         let l = self.length();
         let mut best = (self.wrap(s), f64::INFINITY);
         for i in 0..self.segment_count() {
@@ -209,46 +211,50 @@ impl RefPath {
 mod tests {
     use super::*;
 
+    fn pts(v: &[(f64, f64)]) -> Vec<Point2<f64>> {
+        v.iter().map(|&(x, y)| Point2::new(x, y)).collect()
+    }
+
     #[test]
     fn projection_and_wrap() {
-        let p = RefPath::new(vec![(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)], true).unwrap();
-        let (s, d) = p.project((2.0, -0.5));
+        let p = RefPath::new(pts(&[(0.0, 0.0), (4.0, 0.0), (4.0, 4.0), (0.0, 4.0)]), true).unwrap();
+        let (s, d) = p.project(&Point2::new(2.0, -0.5));
         assert_eq!((s, d), (2.0, 0.5));
-        let (s, _) = p.project((-0.5, 2.0));
+        let (s, _) = p.project(&Point2::new(-0.5, 2.0));
         assert_eq!(s, 14.0);
         assert_eq!(p.wrap(17.0), 1.0);
         assert_eq!(p.wrap(-1.0), 15.0);
         assert_eq!(p.delta(15.5, 0.5), 1.0);
         assert_eq!(p.delta(0.5, 15.5), -1.0);
         // Near-projection stays on the segments of the window even when another part is nearer.
-        assert_eq!(p.project((3.9, 2.0)).0, 6.0);
-        let (s, d) = p.project_near((3.9, 2.0), 1.0, 1.0, 2.0);
+        assert_eq!(p.project(&Point2::new(3.9, 2.0)).0, 6.0);
+        let (s, d) = p.project_near(&Point2::new(3.9, 2.0), 1.0, 1.0, 2.0);
         assert_eq!((s, d), (3.9, 2.0));
-        let (x, y, h) = p.point_at(15.0);
-        assert_eq!((x, y), (0.0, 1.0));
+        let (q, h) = p.point_at(15.0);
+        assert_eq!(q, Point2::new(0.0, 1.0));
         assert!((h + std::f64::consts::FRAC_PI_2).abs() < 1e-12);
     }
 
     #[test]
     fn bad_paths_are_refused() {
         assert_eq!(
-            RefPath::new(vec![(0.0, 0.0)], false),
+            RefPath::new(pts(&[(0.0, 0.0)]), false),
             Err(PathError::TooFew)
         );
         assert_eq!(
-            RefPath::new(vec![(0.0, 0.0), (1.0, 0.0)], true),
+            RefPath::new(pts(&[(0.0, 0.0), (1.0, 0.0)]), true),
             Err(PathError::TooFew)
         );
         assert_eq!(
-            RefPath::new(vec![(0.0, 0.0), (0.0, 0.0)], false),
+            RefPath::new(pts(&[(0.0, 0.0), (0.0, 0.0)]), false),
             Err(PathError::Repeated(1))
         );
         assert_eq!(
-            RefPath::new(vec![(0.0, f64::NAN), (0.0, 1.0)], false),
+            RefPath::new(pts(&[(0.0, f64::NAN), (0.0, 1.0)]), false),
             Err(PathError::NotFinite(0))
         );
-        let open = RefPath::new(vec![(0.0, 0.0), (1.0, 0.0)], false).unwrap();
+        let open = RefPath::new(pts(&[(0.0, 0.0), (1.0, 0.0)]), false).unwrap();
         assert_eq!(open.wrap(3.0), 1.0);
-        assert_eq!(open.point_at(3.0).0, 1.0);
+        assert_eq!(open.point_at(3.0).0.x, 1.0);
     }
 }

@@ -53,11 +53,12 @@ use std::sync::Arc;
 
 use firmware_core::observation::{MAX_OBJECT_RADIUS, SemanticClass};
 use firmware_core::{FEATURE_COUNT, Feature, Weights};
+use nalgebra::{Point2, Vector2};
 use serde::Deserialize;
 use thiserror::Error;
 
 use crate::checks;
-use crate::world::car::{CarParams, Pose};
+use crate::world::car::{CarParams, Pose, rotation};
 use crate::world::map::{MapError, OccupancyGrid};
 use crate::world::path::RefPath;
 use crate::world::teacher::{self, TeacherSpec};
@@ -189,42 +190,40 @@ pub enum Shape {
 pub struct WorldObject {
     /// Door, stairs or chair.
     pub class: SemanticClass,
-    /// Centre x (m).
-    pub x: f64,
-    /// Centre y (m).
-    pub y: f64,
+    /// Its centre (m).
+    pub centre: Point2<f64>,
     /// Its shape.
     pub shape: Shape,
 }
 
 impl WorldObject {
-    /// The disc the car at `p` sees (see the module documentation): `(x, y, radius)`.
-    pub fn disc_seen_from(&self, p: (f64, f64)) -> (f64, f64, f64) {
+    /// The disc the car at `p` sees (see the module documentation): its centre and radius.
+    pub fn disc_seen_from(&self, p: &Point2<f64>) -> (Point2<f64>, f64) {
         match self.shape {
-            Shape::Disc { radius } => (self.x, self.y, radius),
+            Shape::Disc { radius } => (self.centre, radius),
             Shape::Rect { width, height, yaw } => {
-                let (c, s) = (libm::cos(yaw), libm::sin(yaw));
-                // Unit vector of the long axis and half the middle segment's length.
-                let (ux, uy, half, r) = if width >= height {
-                    (c, s, (width - height) / 2.0, height / 2.0)
+                // The long axis and half the middle segment's length.
+                let (axis, half, r) = if width >= height {
+                    (Vector2::x(), (width - height) / 2.0, height / 2.0)
                 } else {
-                    (-s, c, (height - width) / 2.0, width / 2.0)
+                    (Vector2::y(), (height - width) / 2.0, width / 2.0)
                 };
-                let t = ((p.0 - self.x) * ux + (p.1 - self.y) * uy).clamp(-half, half);
-                (self.x + t * ux, self.y + t * uy, r)
+                let u = rotation(yaw) * axis;
+                let t = (p - self.centre).dot(&u).clamp(-half, half);
+                (self.centre + u * t, r)
             }
         }
     }
 
     /// The point of the (seen) object nearest to `p`, and its distance (0 inside).
-    pub fn nearest_point(&self, p: (f64, f64)) -> ((f64, f64), f64) {
-        let (cx, cy, r) = self.disc_seen_from(p);
-        let (dx, dy) = (p.0 - cx, p.1 - cy);
-        let d = libm::sqrt(dx * dx + dy * dy);
+    pub fn nearest_point(&self, p: &Point2<f64>) -> (Point2<f64>, f64) {
+        let (c, r) = self.disc_seen_from(p);
+        let v = p - c;
+        let d = v.norm();
         if d <= r {
-            (p, 0.0)
+            (*p, 0.0)
         } else {
-            ((cx + dx / d * r, cy + dy / d * r), d - r)
+            (c + v / d * r, d - r)
         }
     }
 }
@@ -321,7 +320,7 @@ impl Scenario {
                     format!("({x}, {y}) is not in free space of the map"),
                 ));
             }
-            points.push((x, y));
+            points.push(Point2::new(x, y));
         }
         let closed = raw.path.closed.unwrap_or(true);
         let ref_path =
@@ -334,8 +333,8 @@ impl Scenario {
                 theta: finite(path, "start.theta".into(), s.theta, 100.0)?,
             },
             None => {
-                let (x, y, theta) = ref_path.point_at(0.0);
-                Pose { x, y, theta }
+                let (p, theta) = ref_path.point_at(0.0);
+                Pose::at(p, theta)
             }
         };
         let car = CarParams::MUSHR;
@@ -349,7 +348,7 @@ impl Scenario {
                 ),
             ));
         }
-        if ref_path.project((start.x, start.y)).1 > 1.0 {
+        if ref_path.project(&start.position()).1 > 1.0 {
             return Err(err(path, "start", "must be within 1 m of the path"));
         }
 
@@ -415,7 +414,11 @@ impl Scenario {
                     ));
                 }
             };
-            objects.push(WorldObject { class, x, y, shape });
+            objects.push(WorldObject {
+                class,
+                centre: Point2::new(x, y),
+                shape,
+            });
         }
 
         let teacher = parse_teacher(raw.teacher, path)?;

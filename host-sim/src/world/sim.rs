@@ -171,7 +171,7 @@ impl Episode {
     pub fn reset(&mut self) {
         self.car = CarState::at(self.start);
         let st = self.start;
-        self.s = self.scenario.path.project((st.x, st.y)).0;
+        self.s = self.scenario.path.project(&st.position()).0;
         self.progress = 0.0;
         self.best = 0.0;
         self.since_progress = 0;
@@ -249,8 +249,7 @@ impl Episode {
             }
         }
         let path = &self.scenario.path;
-        let p = (self.car.pose.x, self.car.pose.y);
-        let (s, d) = path.project_near(p, self.s, 1.0, 2.0);
+        let (s, d) = path.project_near(&self.car.pose.position(), self.s, 1.0, 2.0);
         self.progress += path.delta(self.s, s);
         self.s = s;
         let mut lap = false;
@@ -316,16 +315,16 @@ pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
         scan.ranges[j] = (r as f32).min(SCAN_MAX_RANGE);
     }
     let objects = detect(scenario, pose);
-    let (rx, ry, rh) = scenario.path.point_at(s + LOOKAHEAD);
-    let (lx, ly) = pose.to_local(rx, ry);
+    let (r, rh) = scenario.path.point_at(s + LOOKAHEAD);
+    let local = pose.to_local(r);
     let pi = std::f32::consts::PI;
     let heading = (wrap_angle(rh - pose.theta) as f32).clamp(-pi, pi);
     protocol::quantize::quantize(&Observation {
         scan,
         objects,
         reference: PathReference {
-            x: lx as f32,
-            y: ly as f32,
+            x: local.x as f32,
+            y: local.y as f32,
             heading,
         },
         speed: car.speed as f32,
@@ -334,12 +333,12 @@ pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
 
 /// The semantic detections from `pose`.
 pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
-    let p = (pose.x, pose.y);
+    let p = pose.position();
     let slack = LOS_SLACK_CELLS * scenario.map.resolution();
     let mut seen: Vec<(f64, usize)> = Vec::new();
     for (i, o) in scenario.objects.iter().enumerate() {
-        let (q, d) = o.nearest_point(p);
-        if d <= SENSOR_RANGE && scenario.map.line_of_sight(p, q, slack) {
+        let (q, d) = o.nearest_point(&p);
+        if d <= SENSOR_RANGE && scenario.map.line_of_sight((p.x, p.y), (q.x, q.y), slack) {
             seen.push((d, i));
         }
     }
@@ -347,12 +346,12 @@ pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
     let mut list = ObjectList::new();
     for &(_, i) in seen.iter().take(MAX_OBJECTS) {
         let o = &scenario.objects[i];
-        let (cx, cy, r) = o.disc_seen_from(p);
-        let (lx, ly) = pose.to_local(cx, cy);
+        let (c, r) = o.disc_seen_from(&p);
+        let local = pose.to_local(c);
         let obj = SemanticObject {
             class: o.class,
-            x: lx as f32,
-            y: ly as f32,
+            x: local.x as f32,
+            y: local.y as f32,
             radius: r as f32,
         };
         // At most MAX_OBJECTS are taken, so the list has room.
@@ -369,6 +368,7 @@ mod tests {
     use crate::world::scenario::{Shape, WorldObject};
     use crate::world::teacher::{TeacherSpec, preset};
     use firmware_core::observation::SemanticClass;
+    use nalgebra::Point2;
 
     /// A 10 m × 6 m room (0.05 m cells) with a wall across x = 6 from y = 0 to y = 4, a path
     /// along y = 1 and `objects`.
@@ -381,7 +381,7 @@ mod tests {
             description: String::new(),
             source: Default::default(),
             map: Arc::new(map),
-            path: RefPath::new(vec![(1.0, 1.0), (5.0, 1.0)], false).unwrap(),
+            path: RefPath::new(vec![Point2::new(1.0, 1.0), Point2::new(5.0, 1.0)], false).unwrap(),
             start: Pose {
                 x: 1.0,
                 y: 1.0,
@@ -395,8 +395,7 @@ mod tests {
     fn chair(x: f64, y: f64) -> WorldObject {
         WorldObject {
             class: SemanticClass::Chair,
-            x,
-            y,
+            centre: Point2::new(x, y),
             shape: Shape::Disc { radius: 0.2 },
         }
     }

@@ -211,6 +211,17 @@ pub fn path_follower(w: &Weights) -> Weights {
 /// Default correction threshold on the perceived latent loss.
 pub const DEFAULT_THRESHOLD: f32 = 1.0;
 
+/// `--statements NAME` on the command line.
+impl clap::ValueEnum for StatementSet {
+    fn value_variants<'a>() -> &'a [Self] {
+        &Self::ALL
+    }
+
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        Some(clap::builder::PossibleValue::new(self.name()))
+    }
+}
+
 /// Which statements a semantic teacher says (see the module documentation).
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Default)]
 pub enum StatementSet {

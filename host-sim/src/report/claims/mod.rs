@@ -60,6 +60,16 @@ pub const CLAIMS: [&str; 6] = [
     "The corrections flatten out (fewer in the last tenth of a run than in the first, or none)",
 ];
 
+/// The claims in a few words, for tables where each claim is asked of many worlds.
+pub const SHORT: [&str; 6] = [
+    "every feedback type lowers the latent loss",
+    "behaviour cloning stays about flat",
+    "action feedback needs the fewest corrections",
+    "more noise: higher final loss, more corrections",
+    "lower threshold: lower final loss, more corrections",
+    "the corrections flatten out",
+];
+
 /// A claim's outcome.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Verdict {
@@ -117,6 +127,19 @@ pub fn task(a: &Aggregate) -> String {
         } else {
             format!(" ({})", causes.join(", "))
         }
+    )
+}
+
+/// `f` of each aggregate, joined by `sep`: "0.010 ± 0.002, 0.031 ± 0.004".
+pub fn join(aggs: &[&Aggregate], sep: &str, f: impl Fn(&Aggregate) -> String) -> String {
+    aggs.iter().map(|a| f(a)).collect::<Vec<_>>().join(sep)
+}
+
+/// " Where the cars got: LABEL: TASK; …." for the settings `aggs`, each labelled by `label`.
+pub fn where_they_got(aggs: &[&Aggregate], label: impl Fn(&Aggregate) -> String) -> String {
+    format!(
+        " Where the cars got: {}.",
+        join(aggs, "; ", |a| format!("{}: {}", label(a), task(a)))
     )
 }
 

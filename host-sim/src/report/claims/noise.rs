@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use super::{Verdict, breaks_increase, pm, pm1, task};
+use super::{Verdict, breaks_increase, join, pm, pm1, where_they_got};
 use crate::report::aggregate::Aggregate;
 use crate::report::statistics::spearman;
 
@@ -36,22 +36,13 @@ pub fn noise_raises(curves: &[&Aggregate], sweep: &[&Aggregate]) -> Verdict {
             .collect::<Vec<_>>()
             .join(", ")
     };
-    let sigmas: Vec<String> = curves.iter().map(|a| a.setting.noise.to_string()).collect();
     let mut text = format!(
         "Doors, action feedback, threshold 1.0; σ = {}: final loss {}; corrections {}. Over the \
          whole sweep (σ 0 to 2 in steps of 0.125) the Spearman rank correlation with σ is \
          {rho_l:.2} for the final loss and {rho_c:.2} for the corrections.",
-        sigmas.join(", "),
-        curves
-            .iter()
-            .map(|a| pm(a.final_loss))
-            .collect::<Vec<_>>()
-            .join(", "),
-        curves
-            .iter()
-            .map(|a| pm1(a.total_corrections))
-            .collect::<Vec<_>>()
-            .join(", "),
+        join(curves, ", ", |a| a.setting.noise.to_string()),
+        join(curves, ", ", |a| pm(a.final_loss)),
+        join(curves, ", ", |a| pm1(a.total_corrections)),
     );
     if !bl.is_empty() {
         let _ = write!(text, " The final loss does not rise at {}.", desc(&bl));
@@ -65,14 +56,8 @@ pub fn noise_raises(curves: &[&Aggregate], sweep: &[&Aggregate]) -> Verdict {
              this many trials.",
         );
     }
-    let _ = write!(
-        text,
-        " Where the cars got: {}.",
-        curves
-            .iter()
-            .map(|a| format!("σ {}: {}", a.setting.noise, task(a)))
-            .collect::<Vec<_>>()
-            .join("; ")
-    );
+    text.push_str(&where_they_got(curves, |a| {
+        format!("σ {}", a.setting.noise)
+    }));
     Verdict { holds, text }
 }

@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use super::{Verdict, breaks_increase, pm, pm1, task};
+use super::{Verdict, breaks_increase, join, pm, pm1, where_they_got};
 use crate::report::aggregate::Aggregate;
 use crate::report::statistics::spearman;
 
@@ -20,25 +20,12 @@ pub fn threshold_lowers(paper: &[&Aggregate], all: &[&Aggregate]) -> Verdict {
             .collect::<Vec<_>>()
             .join(", ")
     };
-    let list = |v: &[&Aggregate]| {
-        v.iter()
-            .map(|a| a.setting.threshold.to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
+    let thresholds = |v: &[&Aggregate]| join(v, ", ", |a| a.setting.threshold.to_string());
     let mut text = format!(
         "Stairs-chairs, action feedback; the paper's thresholds {}: final loss {}; corrections {}.",
-        list(paper),
-        paper
-            .iter()
-            .map(|a| pm(a.final_loss))
-            .collect::<Vec<_>>()
-            .join(", "),
-        paper
-            .iter()
-            .map(|a| pm1(a.total_corrections))
-            .collect::<Vec<_>>()
-            .join(", "),
+        thresholds(paper),
+        join(paper, ", ", |a| pm(a.final_loss)),
+        join(paper, ", ", |a| pm1(a.total_corrections)),
     );
     if !bl.is_empty() {
         let inversions: Vec<String> = bl
@@ -72,8 +59,9 @@ pub fn threshold_lowers(paper: &[&Aggregate], all: &[&Aggregate]) -> Verdict {
             desc(&bc)
         );
     }
-    let extra: Vec<&&Aggregate> = all
+    let extra: Vec<&Aggregate> = all
         .iter()
+        .copied()
         .filter(|a| {
             !paper
                 .iter()
@@ -94,31 +82,14 @@ pub fn threshold_lowers(paper: &[&Aggregate], all: &[&Aggregate]) -> Verdict {
             " Beyond the paper's range, thresholds {}: final loss {}; corrections {}. Over all {} \
              thresholds the Spearman rank correlation with the threshold is {rho_l:.2} for the \
              final loss and {rho_c:.2} for the corrections.",
-            extra
-                .iter()
-                .map(|a| a.setting.threshold.to_string())
-                .collect::<Vec<_>>()
-                .join(", "),
-            extra
-                .iter()
-                .map(|a| pm(a.final_loss))
-                .collect::<Vec<_>>()
-                .join(", "),
-            extra
-                .iter()
-                .map(|a| pm1(a.total_corrections))
-                .collect::<Vec<_>>()
-                .join(", "),
+            thresholds(&extra),
+            join(&extra, ", ", |a| pm(a.final_loss)),
+            join(&extra, ", ", |a| pm1(a.total_corrections)),
             all.len()
         );
     }
-    let _ = write!(
-        text,
-        " Where the cars got: {}.",
-        all.iter()
-            .map(|a| format!("threshold {}: {}", a.setting.threshold, task(a)))
-            .collect::<Vec<_>>()
-            .join("; ")
-    );
+    text.push_str(&where_they_got(all, |a| {
+        format!("threshold {}", a.setting.threshold)
+    }));
     Verdict { holds, text }
 }

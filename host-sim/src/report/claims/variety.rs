@@ -2,7 +2,7 @@
 
 use std::fmt::Write as _;
 
-use super::{Verdict, pm, pm1, task};
+use super::{Verdict, pm, pm1, task, where_they_got};
 use crate::report::aggregate::Aggregate;
 
 /// The largest relative change of behaviour cloning's loss that still counts as flat.
@@ -12,7 +12,6 @@ pub const BC_FLAT: f64 = 0.25;
 pub fn feedback_lowers_loss(doors: &[&Aggregate]) -> Verdict {
     let mut holds = !doors.is_empty();
     let mut parts = Vec::new();
-    let mut tasks = Vec::new();
     for a in doors {
         let lowered = a.final_loss.0 < a.first_loss.0;
         holds &= lowered;
@@ -30,7 +29,6 @@ pub fn feedback_lowers_loss(doors: &[&Aggregate]) -> Verdict {
                 "not lower".into()
             }
         ));
-        tasks.push(format!("{m}: {}", task(a)));
     }
     let mut text = format!(
         "Mean latent loss, first tenth → last tenth, in `doors`: {}.",
@@ -42,7 +40,9 @@ pub fn feedback_lowers_loss(doors: &[&Aggregate]) -> Verdict {
              are in the variety table below.",
         );
     }
-    let _ = write!(text, " Where the cars got: {}.", tasks.join("; "));
+    text.push_str(&where_they_got(doors, |a| {
+        a.setting.mode.name().to_string()
+    }));
     Verdict { holds, text }
 }
 

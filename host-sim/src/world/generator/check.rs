@@ -14,6 +14,8 @@ use std::sync::Arc;
 
 use anyhow::Result;
 
+use nalgebra::Point2;
+
 use crate::world::check::{self, lap_tick_limit};
 use crate::world::scenario::Scenario;
 use crate::world::sim::{LOS_SLACK_CELLS, SENSOR_RANGE};
@@ -27,11 +29,8 @@ pub const REACH_STEP: f64 = 0.1;
 pub fn unreachable_objects(scenario: &Scenario) -> Vec<usize> {
     let path = &scenario.path;
     let n = libm::ceil(path.length() / REACH_STEP) as usize;
-    let points: Vec<(f64, f64)> = (0..n)
-        .map(|k| {
-            let (x, y, _) = path.point_at(k as f64 * REACH_STEP);
-            (x, y)
-        })
+    let points: Vec<Point2<f64>> = (0..n)
+        .map(|k| path.point_at(k as f64 * REACH_STEP).0)
         .collect();
     let slack = LOS_SLACK_CELLS * scenario.map.resolution();
     scenario
@@ -39,9 +38,9 @@ pub fn unreachable_objects(scenario: &Scenario) -> Vec<usize> {
         .iter()
         .enumerate()
         .filter(|(_, o)| {
-            !points.iter().any(|&p| {
+            !points.iter().any(|p| {
                 let (q, d) = o.nearest_point(p);
-                d <= SENSOR_RANGE && scenario.map.line_of_sight(p, q, slack)
+                d <= SENSOR_RANGE && scenario.map.line_of_sight((p.x, p.y), (q.x, q.y), slack)
             })
         })
         .map(|(i, _)| i)
@@ -63,7 +62,7 @@ pub struct Contrast {
     /// a teacher would correct the path follower there.
     pub over_threshold: u32,
     /// The follower's positions, the start first.
-    pub trace: Vec<(f64, f64)>,
+    pub trace: Vec<Point2<f64>>,
 }
 
 /// Drives the path follower of `spec` for one lap ([`check::drive_lap`], the scenario check's
@@ -118,6 +117,7 @@ mod tests {
     use crate::world::scenario::{Shape, WorldObject};
     use crate::world::teacher::{PRESETS, TeacherSpec};
     use firmware_core::observation::SemanticClass;
+    use nalgebra::Point2;
 
     /// A 12 m × 10 m room (5 cm cells) with a wall across x = 6 m from y = 0 to 4 m, a path
     /// from (1, 1) to (5, 1), and chairs: in sight, behind the wall, beyond the range.
@@ -128,14 +128,12 @@ mod tests {
         });
         let chair = |x, y| WorldObject {
             class: SemanticClass::Chair,
-            x,
-            y,
+            centre: Point2::new(x, y),
             shape: Shape::Disc { radius: 0.2 },
         };
         let stairs = WorldObject {
             class: SemanticClass::Stairs,
-            x: 9.0,
-            y: 6.0,
+            centre: Point2::new(9.0, 6.0),
             shape: Shape::Rect {
                 width: 4.0,
                 height: 1.0,
@@ -147,7 +145,7 @@ mod tests {
             description: String::new(),
             source: Default::default(),
             map: Arc::new(map),
-            path: RefPath::new(vec![(1.0, 1.0), (5.0, 1.0)], false).unwrap(),
+            path: RefPath::new(vec![Point2::new(1.0, 1.0), Point2::new(5.0, 1.0)], false).unwrap(),
             start: Pose {
                 x: 1.0,
                 y: 1.0,

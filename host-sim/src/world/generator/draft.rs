@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use firmware_core::observation::SemanticClass;
+use nalgebra::Point2;
 
 use super::check;
 use super::geometry::metres;
@@ -162,8 +163,7 @@ impl Draft {
                 };
                 WorldObject {
                     class: ob.class,
-                    x: shape.0,
-                    y: shape.1,
+                    centre: Point2::new(shape.0, shape.1),
                     shape: shape.2,
                 }
             })
@@ -171,17 +171,21 @@ impl Draft {
         let meta = MapMeta::parse(&yaml, Path::new(&format!("{}.yaml", o.name)))?;
         let cells = |mm: i32| (mm / super::geometry::GRID) as usize;
         let grid = grid_of(&pgm, (cells(plan.size.0), cells(plan.size.1)), &meta)?;
-        let points: Vec<(f64, f64)> = plan.waypoints.iter().map(|&(x, y)| (m(x), m(y))).collect();
+        let points: Vec<Point2<f64>> = plan
+            .waypoints
+            .iter()
+            .map(|&(x, y)| Point2::new(m(x), m(y)))
+            .collect();
         let path =
             RefPath::new(points, true).map_err(|e| anyhow::anyhow!("the plan's path: {e}"))?;
-        let (x, y, theta) = path.point_at(0.0);
+        let (at, theta) = path.point_at(0.0);
         let scenario = Scenario {
             name: o.name.clone(),
             description: description(plan, o),
             source: PathBuf::from(format!("{}.toml", o.name)),
             map: Arc::new(grid),
             path,
-            start: Pose { x, y, theta },
+            start: Pose::at(at, theta),
             objects,
             teacher: TeacherSpec::from_preset(o.teacher),
         };
@@ -199,8 +203,11 @@ impl Draft {
     pub(crate) fn accept(&self) -> Result<Vec<TeacherLap>, Why> {
         let s = &self.scenario;
         for (index, &at) in s.path.points().iter().enumerate() {
-            if s.map.is_blocked(at.0, at.1) {
-                return Err(Why::Waypoint { index, at });
+            if s.map.is_blocked(at.x, at.y) {
+                return Err(Why::Waypoint {
+                    index,
+                    at: (at.x, at.y),
+                });
             }
         }
         if CarParams::MUSHR.footprint_hits(&s.map, s.start) {
@@ -211,7 +218,7 @@ impl Draft {
             return Err(Why::OutOfReach {
                 object,
                 what: self.objects[object],
-                at: (o.x, o.y),
+                at: (o.centre.x, o.centre.y),
             });
         }
         // The scenario check of `load_scenario`, with each preset teacher in turn.
