@@ -160,10 +160,13 @@ fn behaviour_cloning_is_fitted_on_ticks_0_to_49_then_frozen() {
 }
 
 /// `host-sim run`'s default learner for each kind of feedback (docs/learners.md) learns on
-/// doors over seeds. Measured (seeds 0–7), last-tenth over first-tenth loss: action (AdaGrad)
-/// median 0.047, worst 0.186; preference (Coactive) median 0.032, worst 0.070; semantic
-/// (AdaGrad) median 0.042, worst 0.140. Asserted: median below 0.15 and worst below 0.5 for
-/// each, margins of at least 2.7 times.
+/// doors over seeds. Measured (seeds 0–7), last-tenth over first-tenth loss: action (Coactive)
+/// median 0.071, worst 0.201; preference (plain OGD) median 0.195, worst 0.361; semantic
+/// (AdaGrad) median 0.058, worst 0.180. Asserted: for action and semantic feedback median below 0.15 and worst
+/// below 0.5; for preferences, which say less per correction, the bounds of the paper learner's
+/// preference test above (median below 0.5, every seed below 1): margins of at least 2 times.
+/// (The defaults were AdaGrad / Coactive / AdaGrad, with median 0.047 / 0.032 / 0.042, until the
+/// regenerated table chose otherwise under the same rule.)
 #[test]
 fn run_s_default_learners_learn_over_seeds() {
     for kind in PAPER_KINDS {
@@ -174,7 +177,11 @@ fn run_s_default_learners_learn_over_seeds() {
         let name = format!("doors/{}/{}", kind.name(), learner.kind.name());
         let (median, worst) = median_and_worst(ratios(&name, &runs));
         println!("{name}: median {median:.3}, worst {worst:.3}");
-        assert!(median < 0.15, "{name}: median ratio {median}");
-        assert!(worst < 0.5, "{name}: worst ratio {worst}");
+        let (median_bound, worst_bound) = match kind {
+            FeedbackKind::Preference => (0.5, 1.0),
+            _ => (0.15, 0.5),
+        };
+        assert!(median < median_bound, "{name}: median ratio {median}");
+        assert!(worst < worst_bound, "{name}: worst ratio {worst}");
     }
 }
