@@ -18,8 +18,8 @@
 //!
 //! The record of tick `t` (a `steps.csv` row, the same columns as `host-sim run`) says whether
 //! feedback reached the learner during `t` (`corrected`; the feedback may be about a tick
-//! before), and `corrections` counts every feedback that reached it so far (an E-stop teaches
-//! nothing yet and is not counted). `latent_loss` and `teacher_action` are the scenario's
+//! before), and `corrections` counts every feedback that reached it so far (an E-stop is one:
+//! the intervention, about the current tick, unless that tick had no choice to judge). `latent_loss` and `teacher_action` are the scenario's
 //! programmatic teacher's view of the tick, as in `run`: the person can compare themselves with
 //! it, the learner never sees it.
 //!
@@ -61,8 +61,11 @@ use crate::world::car::Pose;
 use crate::world::sim::{Episode, ResetReason};
 use crate::world::teacher::{FeedbackKind, Judgement, Teacher};
 
-/// Version of the session files' layout (`summary.json`'s `session.format`).
-pub const SESSION_FORMAT: u32 = 1;
+/// Version of the session files' layout (`summary.json`'s `session.format`). 2: the E-stop
+/// teaches (the intervention feedback, issue 15), where in 1 it taught nothing, so a format-1
+/// session with an E-stop would replay differently and is refused; reward and correctness
+/// teachings are new.
+pub const SESSION_FORMAT: u32 = 2;
 
 /// The learner's link as a session sees it: a [`CarLink`] that may say how the link is doing.
 pub trait SessionLink: CarLink + Send {
@@ -981,18 +984,52 @@ mod tests {
     }
 
     #[test]
-    fn the_estop_is_recorded_about_now_and_teaches_nothing() {
+    fn the_estop_is_about_now_and_teaches_the_intervention() {
         let mut s = start(100);
         s.step().unwrap();
         let before = *s.snapshot();
+        let chosen = s.view().decision.action;
+        assert!(chosen.is_some());
         // The page may send any tick: the E-stop is about the current one.
         let e = s.teach(0, Teaching::Estop {}, 2000).unwrap();
-        assert!(e.stop && e.feedback.is_none());
+        assert!(e.stop);
+        assert_eq!(
+            e.feedback,
+            Some(firmware_core::Feedback::EStop(firmware_core::EStopFeedback))
+        );
         assert_eq!(s.entries()[0].tick, s.tick());
-        assert_eq!(*s.snapshot(), before);
-        assert_eq!(s.corrections(), 0);
-        assert!(s.snapshots().is_empty());
+        assert_ne!(*s.snapshot(), before);
+        assert_eq!(s.corrections(), 1);
+        assert_eq!(s.snapshots().len(), 1);
+        assert_eq!(s.snapshots()[0].tick, s.tick());
         assert_eq!(s.counts()["estop"], 1);
+    }
+
+    #[test]
+    fn a_reward_and_a_mark_reach_the_learner_about_their_tick() {
+        let mut s = start(100);
+        s.step().unwrap();
+        s.step().unwrap();
+        let before = *s.snapshot();
+        let t = s.tick();
+        s.teach(t - 1, Teaching::Reward { hundredths: -100 }, 10)
+            .unwrap();
+        let after_reward = *s.snapshot();
+        assert_ne!(after_reward, before);
+        s.teach(t, Teaching::Correctness { correct: false }, 20)
+            .unwrap();
+        assert_ne!(*s.snapshot(), after_reward);
+        assert_eq!(s.corrections(), 2);
+        assert_eq!((s.entries()[0].tick, s.entries()[1].tick), (t - 1, t));
+        assert_eq!(s.counts()["reward"], 1);
+        assert_eq!(s.counts()["correctness"], 1);
+        // A reward of 0 is refused and changes nothing.
+        let e = s
+            .teach(t, Teaching::Reward { hundredths: 0 }, 30)
+            .unwrap_err();
+        assert!(matches!(e, TeachError::Refused { .. }), "{e}");
+        assert_eq!(s.corrections(), 2);
+        assert_eq!(s.entries().len(), 2);
     }
 
     /// The in-process learner, with a snapshot that fails once `broken` is set.
@@ -1079,6 +1116,18 @@ mod tests {
                     },
                 )),
                 13 => Some((now, Teaching::Estop {})),
+                15 => Some((
+                    now.saturating_sub(1),
+                    Teaching::Reward {
+                        hundredths: [-100, -50, 50, 100][(i as usize / 20) % 4],
+                    },
+                )),
+                17 => Some((
+                    now,
+                    Teaching::Correctness {
+                        correct: i % 40 == 17,
+                    },
+                )),
                 _ => None,
             };
             if let Some((tick, t)) = t {
@@ -1208,5 +1257,23 @@ mod tests {
             Recorded::read(&tmp.path().join("nowhere")).unwrap_err()
         );
         assert!(e.contains("cannot read"), "{e}");
+    }
+
+    #[test]
+    fn a_session_of_format_1_is_refused_naming_both_formats() {
+        // Format 1's E-stop taught nothing; replaying it with this build's would not be the
+        // same session.
+        let tmp = tempfile::tempdir().unwrap();
+        record(tmp.path());
+        let path = tmp.path().join(names::SUMMARY);
+        let mut summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        summary["session"]["format"] = 1.into();
+        std::fs::write(&path, serde_json::to_vec(&summary).unwrap()).unwrap();
+        let e = format!("{:#}", Recorded::read(tmp.path()).unwrap_err());
+        assert!(
+            e.contains("session format Some(1), this build reads 2"),
+            "{e}"
+        );
     }
 }
