@@ -479,9 +479,12 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
     wait_corrections(&c, 6).await;
     click_button(&c, "mark-incorrect").await;
     wait_corrections(&c, 7).await;
+    // "The last ticks were bad", by its key.
+    press(&c, 'x').await;
+    wait_corrections(&c, 8).await;
     let counts = text(&c, "teachings").await;
     assert!(
-        counts.contains("1 rewards") && counts.contains("1 marks"),
+        counts.contains("1 rewards") && counts.contains("1 marks") && counts.contains("1 spans"),
         "{counts}"
     );
 
@@ -493,7 +496,7 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
         "the E-stop",
     )
     .await;
-    wait_corrections(&c, 8).await;
+    wait_corrections(&c, 9).await;
 
     let said = finish(&c, &mut teach, &out).await;
     assert!(said.iter().any(|l| l.contains("session ended")), "{said:?}");
@@ -515,6 +518,7 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
             "action",
             "reward",
             "correctness",
+            "span",
             "estop"
         ]
     );
@@ -523,12 +527,16 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
     assert_eq!(feedback[3]["content"]["statement"], "avoid-doors");
     assert_eq!(feedback[5]["content"]["hundredths"], 50);
     assert_eq!(feedback[6]["content"]["correct"], false);
+    assert_eq!(
+        feedback[7]["content"],
+        serde_json::json!({"ticks": 4, "good": false})
+    );
     assert!(
         feedback
             .iter()
             .all(|e| e["tick"].is_u64() && e["wall_time_ms"].is_u64())
     );
-    assert_eq!(lines(&dir.join("snapshots.jsonl")).len(), 8);
+    assert_eq!(lines(&dir.join("snapshots.jsonl")).len(), 9);
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["config"]["feedback"], "person");

@@ -14,6 +14,7 @@
 //! | says a statement | `D` avoid doors, `S` avoid stairs, `C` avoid chairs, `L` stay on the path, `R` keep right, `W` keep off the walls | [`Feedback::Semantic`] with that one statement |
 //! | rewards the learner's action of the tick | `7` −1, `8` −½, `9` +½, `0` +1 | [`Feedback::Reward`]: that reward, in hundredths ([`firmware_core::feedback::REWARD_STEPS`] a unit) |
 //! | marks the learner's action of the tick correct or incorrect | `G` correct, `B` incorrect | [`Feedback::Correctness`] |
+//! | labels the last ticks good or bad | `V` good, `X` bad | [`Feedback::Span`] over the [`TICK_HISTORY`] ticks up to the one shown (the ticks the learner remembers): correct/incorrect of each one's action |
 //! | presses E-stop | `Esc` | [`Feedback::EStop`] (the intervention: the action of the current tick was unacceptable), and the car stops (the session pauses; over a link the host sends nothing more after it and the car's watchdog stops it) |
 //!
 //! The first four statements are the paper's (its semantic teacher speaks of doors, stairs,
@@ -31,8 +32,10 @@
 //! applies whatever feedback the effect gives, counts it as a correction and records it, and the
 //! replay reads it back from `feedback.jsonl`. A kind the learner takes later (an intervention for
 //! the E-stop, a reward, a correct/incorrect mark, good/bad over a span of ticks, a ranking, a
-//! perturbed trajectory) slots in the same way. A kind about several ticks (a span) needs more: today
-//! `Session::teach` judges a teaching against the one [`TickRound`] of the tick it names. The serialised form of
+//! perturbed trajectory) slots in the same way. A span is about several ticks, but names only its
+//! last: `Session::teach` judges it against that tick's [`TickRound`] (it needs a choice there),
+//! and the learner applies it to each tick of the span it still holds (firmware-core's
+//! `Agent::feedback`), so the session needs nothing more. The serialised form of
 //! a [`Teaching`] is what `feedback.jsonl` holds (`kind`, `content`), so old sessions keep
 //! replaying when kinds are added. A kind whose *meaning* changes is another matter: the E-stop,
 //! which taught nothing in session format 1, teaches since format 2, so a format-1 session is
@@ -43,9 +46,11 @@
 //! trajectory, and the size of a reward does not change the generalized hinge's step (it is
 //! recorded and travels all the same).
 
+#[cfg(doc)]
+use firmware_core::agent::TICK_HISTORY;
 use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, CorrectnessFeedback, EStopFeedback, Feature, Feedback,
-    Polarity, PreferenceFeedback, RewardFeedback, SemanticFeedback, Statement,
+    Polarity, PreferenceFeedback, RewardFeedback, SemanticFeedback, SpanFeedback, Statement,
 };
 use serde::{Deserialize, Serialize};
 
@@ -146,6 +151,13 @@ pub enum Teaching {
         /// Whether it was correct.
         correct: bool,
     },
+    /// The last ticks, up to and including the one named, were all good or all bad.
+    Span {
+        /// How many ticks: 1 to [`firmware_core::MAX_SPAN`].
+        ticks: u8,
+        /// Good or bad.
+        good: bool,
+    },
 }
 
 /// What a [`Teaching`] does.
@@ -182,11 +194,14 @@ pub enum TeachingError {
     /// A reward of 0 (which says nothing) or beyond ±1.
     #[error("a reward is −100 to 100 hundredths and not 0, got {0}")]
     BadReward(i8),
+    /// A span of no tick, or longer than [`firmware_core::MAX_SPAN`].
+    #[error("a span is 1 to {max} ticks, got {0}", max = firmware_core::MAX_SPAN)]
+    BadSpan(u8),
 }
 
 impl Teaching {
     /// Its kind, as in `feedback.jsonl`: action, preference, statement, estop, reward,
-    /// correctness.
+    /// correctness, span.
     pub const fn kind(&self) -> &'static str {
         match self {
             Teaching::Action { .. } => "action",
@@ -195,22 +210,25 @@ impl Teaching {
             Teaching::Estop {} => "estop",
             Teaching::Reward { .. } => "reward",
             Teaching::Correctness { .. } => "correctness",
+            Teaching::Span { .. } => "span",
         }
     }
 
     /// The names of every kind, in the order of the variants.
-    pub const KINDS: [&'static str; 6] = [
+    pub const KINDS: [&'static str; 7] = [
         "action",
         "preference",
         "statement",
         "estop",
         "reward",
         "correctness",
+        "span",
     ];
 
     /// What it does in a tick where the learner did `round`; refused when it names a trajectory
-    /// that collided there, corrects a tick without a choice, or gives a reward of 0 or beyond
-    /// ±1. The E-stop is never refused: in a tick without a choice it stops the car and teaches
+    /// that collided there, corrects a tick without a choice (for a span: its last tick), or
+    /// gives a reward of 0 or beyond ±1 or a span of 0 ticks or more than
+    /// [`firmware_core::MAX_SPAN`]. The E-stop is never refused: in a tick without a choice it stops the car and teaches
     /// nothing (there was no action to judge).
     pub fn effect(&self, round: TickRound) -> Result<Effect, TeachingError> {
         let learn = |feedback: Feedback| {
@@ -260,6 +278,11 @@ impl Teaching {
             }
             Teaching::Correctness { correct } => {
                 learn(Feedback::Correctness(CorrectnessFeedback { correct }))
+            }
+            Teaching::Span { ticks, good } => {
+                let span = SpanFeedback { ticks, good };
+                span.check().map_err(|_| TeachingError::BadSpan(ticks))?;
+                learn(Feedback::Span(span))
             }
         }
     }
@@ -460,6 +483,53 @@ mod tests {
     }
 
     #[test]
+    fn good_and_bad_over_the_last_ticks_are_span_feedback() {
+        // The page's two keys label the ticks the learner remembers.
+        for good in [true, false] {
+            let ticks = firmware_core::agent::TICK_HISTORY as u8;
+            assert_eq!(
+                Teaching::Span { ticks, good }.effect(round()),
+                Ok(Effect {
+                    feedback: Some(Feedback::Span(SpanFeedback { ticks, good })),
+                    stop: false
+                })
+            );
+        }
+        let longest = firmware_core::MAX_SPAN;
+        assert!(
+            Teaching::Span {
+                ticks: longest,
+                good: true
+            }
+            .effect(round())
+            .is_ok()
+        );
+        for bad in [0, longest + 1, u8::MAX] {
+            assert_eq!(
+                Teaching::Span {
+                    ticks: bad,
+                    good: false
+                }
+                .effect(round()),
+                Err(TeachingError::BadSpan(bad)),
+                "{bad}"
+            );
+        }
+        let blocked = TickRound {
+            allowed: ActionMask::NONE,
+            chosen: None,
+        };
+        assert_eq!(
+            Teaching::Span {
+                ticks: 4,
+                good: true
+            }
+            .effect(blocked),
+            Err(TeachingError::NoChoice)
+        );
+    }
+
+    #[test]
     fn teachings_serialise_as_kind_and_content_and_refuse_bad_input() {
         let cases = [
             (
@@ -488,6 +558,13 @@ mod tests {
                 Teaching::Correctness { correct: true },
                 r#"{"kind":"correctness","content":{"correct":true}}"#,
             ),
+            (
+                Teaching::Span {
+                    ticks: 4,
+                    good: false,
+                },
+                r#"{"kind":"span","content":{"ticks":4,"good":false}}"#,
+            ),
         ];
         assert_eq!(cases.len(), Teaching::KINDS.len());
         for (t, json) in cases {
@@ -504,6 +581,8 @@ mod tests {
             r#"{"kind":"reward","content":{"hundredths":200}}"#,
             r#"{"kind":"reward","content":{"hundredths":0.5}}"#,
             r#"{"kind":"correctness","content":{"correct":"yes"}}"#,
+            r#"{"kind":"span","content":{"ticks":-1,"good":true}}"#,
+            r#"{"kind":"span","content":{"ticks":4}}"#,
         ] {
             assert!(serde_json::from_str::<Teaching>(bad).is_err(), "{bad}");
         }

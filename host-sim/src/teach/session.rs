@@ -63,8 +63,8 @@ use crate::world::teacher::{FeedbackKind, Judgement, Teacher};
 
 /// Version of the session files' layout (`summary.json`'s `session.format`). 2: the E-stop
 /// teaches (the intervention feedback, issue 15), where in 1 it taught nothing, so a format-1
-/// session with an E-stop would replay differently and is refused; reward and correctness
-/// teachings are new.
+/// session with an E-stop would replay differently and is refused; reward, correctness and
+/// span teachings are new.
 pub const SESSION_FORMAT: u32 = 2;
 
 /// The learner's link as a session sees it: a [`CarLink`] that may say how the link is doing.
@@ -1006,6 +1006,33 @@ mod tests {
     }
 
     #[test]
+    fn a_span_teaches_about_the_ticks_the_learner_holds() {
+        let mut s = start(100);
+        for _ in 0..6 {
+            s.step().unwrap();
+        }
+        let before = *s.snapshot();
+        let t = s.tick();
+        let span = Teaching::Span {
+            ticks: TICK_HISTORY as u8,
+            good: false,
+        };
+        let e = s.teach(t, span, 10).unwrap();
+        assert!(matches!(e.feedback, Some(firmware_core::Feedback::Span(_))));
+        assert_ne!(*s.snapshot(), before);
+        assert_eq!((s.corrections(), s.entries().len()), (1, 1));
+        assert_eq!(s.counts()["span"], 1);
+        // Too long a span is refused and changes nothing.
+        let long = Teaching::Span {
+            ticks: firmware_core::MAX_SPAN + 1,
+            good: false,
+        };
+        let e = s.teach(t, long, 20).unwrap_err();
+        assert!(e.to_string().contains("a span is 1 to"), "{e}");
+        assert_eq!((s.corrections(), s.entries().len()), (1, 1));
+    }
+
+    #[test]
     fn a_reward_and_a_mark_reach_the_learner_about_their_tick() {
         let mut s = start(100);
         s.step().unwrap();
@@ -1098,34 +1125,43 @@ mod tests {
         for i in 0..120u32 {
             wall += 100;
             let now = s.tick();
-            let chosen = s.view().decision.action;
-            let other = another(&s);
-            let t = match i % 20 {
-                3 => Some((now, Teaching::Action { action: other })),
-                7 if chosen.is_some() => Some((
+            let d = s.view().decision;
+            let chosen = d.action;
+            // An allowed trajectory other than the learner's, if there is one.
+            let other = d.allowed.iter().find(|&a| Some(a) != chosen);
+            let t = match (i % 20, other, chosen) {
+                (3, Some(other), _) => Some((now, Teaching::Action { action: other })),
+                (7, Some(other), Some(chosen)) => Some((
                     now,
                     Teaching::Preference {
                         preferred: other,
-                        other: chosen.unwrap(),
+                        other: chosen,
                     },
                 )),
-                11 => Some((
+                (11, _, _) => Some((
                     now.saturating_sub(1),
                     Teaching::Statement {
                         statement: Spoken::ALL[(i as usize / 20) % Spoken::ALL.len()],
                     },
                 )),
-                13 => Some((now, Teaching::Estop {})),
-                15 => Some((
+                (13, _, _) => Some((now, Teaching::Estop {})),
+                (15, _, _) => Some((
                     now.saturating_sub(1),
                     Teaching::Reward {
                         hundredths: [-100, -50, 50, 100][(i as usize / 20) % 4],
                     },
                 )),
-                17 => Some((
+                (17, _, _) => Some((
                     now,
                     Teaching::Correctness {
                         correct: i % 40 == 17,
+                    },
+                )),
+                (19, _, _) => Some((
+                    now,
+                    Teaching::Span {
+                        ticks: TICK_HISTORY as u8 + 2,
+                        good: i % 40 == 19,
                     },
                 )),
                 _ => None,

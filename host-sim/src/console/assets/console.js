@@ -69,6 +69,10 @@
     { group: 'Reward', id: 'reward-plus-1', label: '+1', key: '0', reward: 100 },
     { group: 'Mark', id: 'mark-correct', label: 'Correct', key: 'g', correct: true },
     { group: 'Mark', id: 'mark-incorrect', label: 'Incorrect', key: 'b', correct: false },
+    // Good or bad over the last ticks up to the one shown: as many as the learner remembers (the
+    // scene's span_ticks).
+    { group: 'Last ticks', id: 'span-good', label: 'Good', key: 'v', good: true },
+    { group: 'Last ticks', id: 'span-bad', label: 'Bad', key: 'x', good: false },
     { group: 'Stop', id: 'estop', label: 'E-STOP', key: 'Escape', keyLabel: 'Esc',
       run: () => teach({ kind: 'estop', content: {} }) },
     { group: 'Stop', id: 'finish', label: 'Finish session', key: null, run: finish },
@@ -79,13 +83,16 @@
   // kind without a label here shows its name.
   const KIND_LABELS = {
     action: 'go-there', preference: 'preferences', statement: 'statements', estop: 'E-stops',
-    reward: 'rewards', correctness: 'marks',
+    reward: 'rewards', correctness: 'marks', span: 'spans',
   };
   for (const c of CONTROLS) {
     if (c.say) c.run = () => teach({ kind: 'statement', content: { statement: c.say } });
     if (c.reward) c.run = () => teach({ kind: 'reward', content: { hundredths: c.reward } });
     if (c.correct !== undefined) {
       c.run = () => teach({ kind: 'correctness', content: { correct: c.correct } });
+    }
+    if (c.good !== undefined) {
+      c.run = () => scene && teach({ kind: 'span', content: { ticks: scene.span_ticks, good: c.good } });
     }
   }
 
