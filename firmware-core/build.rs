@@ -191,6 +191,9 @@ fn main() {
     .unwrap();
 
     let mut points: Vec<(f32, f32)> = Vec::new();
+    let mut ends: Vec<String> = Vec::new();
+    let mut centres_of: Vec<String> = Vec::new();
+    let mut poses_of: Vec<String> = Vec::new();
     let mut sample_of: Vec<[usize; SAMPLES]> = Vec::new();
     let mut counts: Vec<usize> = Vec::new();
     for (i, t) in all.iter().enumerate() {
@@ -209,6 +212,8 @@ fn main() {
             )
             .unwrap();
         }
+        let end = t.pose_at(t.length());
+        ends.push(format!("[{}, {}]", f(end.at.x), f(end.at.y)));
         // Clearance samples every SAMPLE_SPACING of arc; unused slots repeat the last sample.
         let count = (t.length() / SAMPLE_SPACING as f64).round() as usize;
         assert!((1..=SAMPLES).contains(&count));
@@ -244,20 +249,57 @@ fn main() {
         };
         writeln!(
             out,
-            "    Trajectory {{ family: Family::{}, segments: [{}, {}], speed: {}, poses: [{}], sample_points: [{}], sample_count: {}, mirror: {} }}, // {}",
+            "    Trajectory {{ family: Family::{}, segments: [{}, {}], speed: {}, index: {}, sample_count: {}, mirror: {} }},",
             if t.creep { "Creep" } else { "Cruise" },
             seg(t.segments[0]),
             seg(t.segments[1]),
             f(t.speed),
-            poses,
-            centers,
+            i,
             counts[i],
             mirror[i],
-            i
         )
         .unwrap();
+        centres_of.push(format!("[{centers}]"));
+        poses_of.push(format!("[{poses}]"));
     }
     writeln!(out, "];").unwrap();
+    writeln!(
+        out,
+        "/// Per trajectory, its poses (`Trajectory::poses`), apart from the trajectories so that an\n\
+         /// image that reads only their segments (the car's) does not hold them."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static TRAJECTORY_POSES: [[Pose; SAMPLES]; crate::MAX_ACTIONS] = [{}];",
+        poses_of.join(",\n")
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// Per trajectory, its clearance samples (`Trajectory::samples`; unused slots repeat the\n\
+         /// last), apart from the trajectories so that an image that reads only their segments\n\
+         /// (the car's) does not hold them."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static TRAJECTORY_SAMPLES: [[[f32; 2]; SAMPLES]; crate::MAX_ACTIONS] = [{}];",
+        centres_of.join(",\n")
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// The end of every trajectory, `[x, y]`: the position of its last pose (the evaluator's\n\
+         /// own copy, so that the car's image needs no whole trajectory)."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static END_POINTS: [[f32; 2]; crate::MAX_ACTIONS] = [{}];",
+        ends.join(", ")
+    )
+    .unwrap();
 
     // Beam directions.
     let bearing = |j: usize| {
@@ -464,10 +506,56 @@ fn main() {
     )
     .unwrap();
     writeln!(out, "pub(crate) const RANGE_BINS: usize = {range_bins};").unwrap();
+    // For each beam, the largest range at which its scan point can come within the obstacle clip
+    // (and the margin) of some sample: on the ray along the beam's direction (the f32 cosine and
+    // sine the evaluator multiplies the range by), the farthest point of the union of the discs
+    // of that radius around the samples, rounded up. A longer beam is out of every sample's
+    // reach. (Every ray starts within the clip of the first samples, so the nearest end is 0.)
+    let beam_reach: Vec<f64> = (0..SCAN_BEAMS)
+        .map(|j| {
+            let (c, s) = direction(j);
+            let (c, s) = (c as f32 as f64, s as f32 as f64);
+            let radius = OBSTACLE_CLIP as f64 + margin;
+            let far = points
+                .iter()
+                .filter_map(|&(x, y)| {
+                    let (x, y) = (x as f64, y as f64);
+                    let t = c * x + s * y;
+                    let q = t * t - (x * x + y * y) + radius * radius;
+                    (q > 0.0).then(|| t + q.sqrt())
+                })
+                .fold(0.0, f64::max);
+            let far = far * (1.0 + 1e-6) + 1e-5;
+            assert!(
+                far > 0.0 && far < range_bins as f64 * bin_width,
+                "beam {j}: {far}"
+            );
+            far
+        })
+        .collect();
+    writeln!(
+        out,
+        "/// Per beam: the largest range at which its scan point may come within the obstacle clip of a sample."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static BEAM_REACH: [f32; {SCAN_BEAMS}] = [{}];",
+        list(
+            beam_reach
+                .iter()
+                .map(|&r| format!("{:?}", (r as f32).next_up()))
+                .collect()
+        )
+    )
+    .unwrap();
     let reach = |c: [f64; 2], d: f64| {
         let r = rho_of(c);
         let alpha = libm::atan2(c[1], c[0]);
-        let h = if r <= d * 1.001 {
+        // A centre nearer the sensor than d: the half plane, and the evaluator adds the beams
+        // shorter than d (`behind`). Beyond d the window alone holds every beam within d.
+        let behind = r <= d * 1.001;
+        let h = if behind {
             std::f64::consts::FRAC_PI_2 + 0.01
         } else {
             libm::asin(d / r) + 0.01
@@ -492,7 +580,7 @@ fn main() {
         (
             beams.len(),
             format!(
-                "Reach {{ window: [{:#010x}, {:#010x}], bins: [{lo}, {hi}] }}",
+                "Reach {{ window: [{:#010x}, {:#010x}], bins: [{lo}, {hi}], behind: {behind} }}",
                 window as u32,
                 (window >> 32) as u32
             ),

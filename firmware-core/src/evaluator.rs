@@ -50,17 +50,19 @@
 //!    beam at bearing `β` is at least `ρ·sin|α − β|` away (at least `ρ` beyond 90°), and at least
 //!    `|r − ρ|` for a range `r`: at compile time each cluster gets the window of beams within
 //!    `asin(d/ρ)` of `α` (with a 0.01 rad margin) and the band of range bins within `d` of `ρ`,
-//!    for `d` = the 0.5 m clip + the spread. Each tick sorts the beams into range bins once (a
-//!    beam beyond every band is never looked at again), and a cluster's candidates are its window
-//!    ANDed with its band: two 32-bit masks. In open space no beam is in any band and the
-//!    obstacle pass ends there;
+//!    for `d` = the 0.5 m clip + the spread. Each tick sorts the beams into range bins once,
+//!    leaving out every beam longer than its own reach (`build.rs`: the farthest range at which
+//!    that beam's point comes within the clip of some sample), which is never looked at again,
+//!    and a cluster's candidates are its window ANDed with its band: two 32-bit masks. In open
+//!    space no beam is within reach and the obstacle pass ends there;
 //! 3. from the cluster's centre, with `m` the distance to its nearest candidate and `s` the
 //!    spread, every member is within `m + s` of that point, so a point farther than `m + 2s`
 //!    from the centre is nobody's nearest: the members measure only the candidates within
 //!    `m + 2s` (the near set), usually one to three;
 //! 4. clusters are visited farthest first: a sample's nearest distance decides its collision,
 //!    and the samples whose trajectories all collide already are skipped; then the semantic
-//!    features and the sums run over the samples of the trajectories that do not collide only.
+//!    features and the sums run over the samples of the trajectories that do not collide only;
+//!    a trajectory none of whose samples came within a clip reads ten clips without a sum.
 //!    Semantic objects are pruned per cluster the same way (reach, and an object that is farther
 //!    than another for every member), and where the centre's distance settles the tests for
 //!    every member at once, a loop without them runs.
@@ -96,15 +98,15 @@
 //! assert_eq!(allowed, ActionMask::ALL); // nothing to hit
 //! ```
 
-use nalgebra::{Isometry2, Translation2, UnitComplex};
+use nalgebra::{Isometry2, Point2, Translation2, UnitComplex};
 
 use crate::action::{ActionMask, MAX_ACTIONS};
 use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
 use crate::lattice::{
-    BEAM_COS, BEAM_SIN, CLUSTERS, Cluster, HEAD_COUNT, HEAD_OF, HEADS, MAX_CLUSTER_SPREAD,
-    MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE, RANGE_BIN_WIDTH, RANGE_BINS, REACH_MARGIN,
-    ROW_SCALE, Reach, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS, TAIL_OF,
-    TRAJECTORIES, UNIQUE_SAMPLES,
+    BEAM_COS, BEAM_REACH, BEAM_SIN, CLUSTERS, Cluster, END_POINTS, HEAD_COUNT, HEAD_OF, HEADS,
+    MAX_CLUSTER_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE, RANGE_BIN_WIDTH, RANGE_BINS,
+    REACH_MARGIN, ROW_SCALE, Reach, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS,
+    TAIL_OF, UNIQUE_SAMPLES,
 };
 use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
@@ -172,18 +174,21 @@ impl Evaluation {
     }
 }
 
-/// The evaluator and its scratch memory (3 328 bytes), reused from tick to tick.
+/// The evaluator and its scratch memory (3 840 bytes), reused from tick to tick.
 ///
 /// Keep one per agent, in a `static` on the car, so the linker accounts for it.
 #[derive(Clone, Debug)]
 pub struct Evaluator {
-    /// Scan points in the car frame.
+    /// Scan points in the car frame (of the beams within reach; the others are stale).
     points: [[f32; 2]; SCAN_BEAMS],
-    /// `shorter[b]`: the beams whose range bin is below `b`, i.e. (up to rounding, which the
-    /// margins absorb) whose range is below `b · RANGE_BIN_WIDTH`.
+    /// `shorter[b]`: the beams within reach whose range bin is below `b`, i.e. (up to rounding,
+    /// which the margins absorb) whose range is below `b · RANGE_BIN_WIDTH`.
     shorter: [Beams; SHORTER],
-    /// Squared distances from a cluster's centre to its candidate beams' points.
-    centre_d2: [f32; SCAN_BEAMS],
+    /// The scan points of one cluster's candidates within its reach, side by side (then its
+    /// near set, compacted into the front), so that its members' loop reads them in order.
+    near: [[f32; 2]; SCAN_BEAMS],
+    /// Their squared distances from the cluster's centre.
+    near_d2: [f32; SCAN_BEAMS],
     /// Per distinct sample: clipped clearance (obstacles, then one class at a time).
     clearance: [f32; SCRATCH],
 }
@@ -208,12 +213,19 @@ pub fn sqrt(x: f32) -> f32 {
     // One float comparison, false for NaN: LLVM turns `x.is_nan() || x < MIN_POSITIVE` into an
     // integer classification of the bits, about 15 instructions more on a Cortex-M4.
     if x >= f32::MIN_POSITIVE {
-        let mut y = f32::from_bits(0x1fbb_4f2e_u32.wrapping_add(x.to_bits() >> 1));
-        y = 0.5 * (y + x / y);
-        return 0.5 * (y + x / y);
+        return newton_sqrt(x);
     }
     // 0, subnormals (never produced by the geometry here), negatives and NaN take the exact path.
     libm::sqrtf(x)
+}
+
+/// [`sqrt`] of an `x` known to be at least `f32::MIN_POSITIVE` (a distance known to exceed a
+/// millimetre): the same bits, without the test.
+#[inline(always)]
+fn newton_sqrt(x: f32) -> f32 {
+    let mut y = f32::from_bits(0x1fbb_4f2e_u32.wrapping_add(x.to_bits() >> 1));
+    y = 0.5 * (y + x / y);
+    0.5 * (y + x / y)
 }
 
 /// `x` if it is below `clip`, else `clip` (`f32::min` without the NaN handling, which is a call
@@ -229,7 +241,8 @@ impl Evaluator {
         Self {
             points: [[0.0; 2]; SCAN_BEAMS],
             shorter: [[0; 2]; SHORTER],
-            centre_d2: [0.0; SCAN_BEAMS],
+            near: [[0.0; 2]; SCAN_BEAMS],
+            near_d2: [0.0; SCAN_BEAMS],
             clearance: [0.0; SCRATCH],
         }
     }
@@ -241,19 +254,18 @@ impl Evaluator {
     pub fn evaluate(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> ActionMask {
         let obstacles = self.obstacles(&obs.scan.ranges);
         let rows = out.rows_mut();
+        let f = Feature::Obstacles.index();
         let allowed = match obstacles {
             Obstacles::Clear => {
                 // Every clearance is the clip: every sum is ten clips.
-                let f = Feature::Obstacles.index();
                 for row in rows.iter_mut() {
                     row[f] = SAMPLES as f32;
                 }
                 u64::MAX
             }
-            Obstacles::Measured(allowed) => {
+            Obstacles::Measured { allowed, touched } => {
                 for_each_action(!allowed, |a| rows[a] = [0.0; FEATURE_COUNT]);
-                let f = Feature::Obstacles.index();
-                self.sum_rows(allowed, f, OBSTACLE_CLIP, rows);
+                self.sum_rows(allowed, touched, f, OBSTACLE_CLIP, rows);
                 allowed
             }
         };
@@ -280,191 +292,171 @@ impl Evaluator {
     }
 
     /// Decides which trajectories collide, then measures the clipped obstacle clearance of every
-    /// sample of the others (into `clearance`). Returns the trajectories that do not collide, one
-    /// bit per action.
+    /// sample of the others (into `clearance`). Returns the trajectories that do not collide, and
+    /// those with a sample nearer than the clip to a scan point, one bit per action.
     fn obstacles(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
-        // Beams binned by range, bin b holding [b·w, (b+1)·w), then accumulated: `shorter[b]`
-        // holds the bins below b. Longer beams are out of every cluster's reach and left out.
+        let Self {
+            points,
+            shorter,
+            near,
+            near_d2,
+            clearance,
+        } = self;
+        // Beams within reach of some sample, binned by range (bin b holding [b·w, (b+1)·w)), then
+        // accumulated: `shorter[b]` holds the bins below b. Longer beams are never looked at.
         let mut bins = [[0u32; 2]; RANGE_BINS];
-        let mut binned = [0u32; 2];
-        for (j, &r) in ranges.iter().enumerate() {
-            let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
-            if b < RANGE_BINS {
-                bins[b][j >> 5] |= 1 << (j & 31);
-                binned[j >> 5] |= 1 << (j & 31);
+        let mut any = false;
+        for (j, (&r, &reach)) in ranges.iter().zip(BEAM_REACH.iter()).enumerate() {
+            if r < reach {
+                let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
+                if let Some(bin) = bins.get_mut(b) {
+                    bin[j >> 5] |= 1 << (j & 31);
+                    any = true;
+                    points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
+                }
             }
         }
-        if binned == [0, 0] {
+        if !any {
             // No beam within reach of any sample: nothing collides, every clearance is the clip.
             return Obstacles::Clear;
         }
-        // The scan points of the binned beams: no other is ever a candidate.
-        for (word, base) in [(binned[0], 0), (binned[1], 32)] {
-            let mut bits = word;
-            while bits != 0 {
-                let j = (bits.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
-                bits &= bits - 1;
-                self.points[j] = [ranges[j] * BEAM_COS[j], ranges[j] * BEAM_SIN[j]];
-            }
-        }
         let mut acc = [0u32; 2];
-        self.shorter[0] = acc;
+        shorter[0] = acc;
         for (b, bin) in bins.iter().enumerate() {
             acc = [acc[0] | bin[0], acc[1] | bin[1]];
-            self.shorter[b + 1] = acc;
+            shorter[b + 1] = acc;
         }
         // Beams shorter than the clip plus the largest spread, and some more (whole bins):
-        // candidates for every cluster whatever their bearing (the windows cover only bearings
-        // within 90° of a cluster's centre).
-        let close = self.shorter[CLOSE_BINS];
+        // candidates for the clusters near the sensor whatever their bearing (their windows
+        // cover only bearings within 90° of the centre's).
+        let close = shorter[CLOSE_BINS];
 
         // Farthest clusters first (their samples collide most often): a sample whose trajectories
         // all collide already is skipped. The nearest scan point of a sample within the clip is
         // in its cluster's near set, so its distance decides both the clearance and the collision.
         let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
         let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
-        let mut collided = 0u64;
-        self.fill(OBSTACLE_CLIP);
+        let (mut collided, mut touched) = (0u64, 0u64);
+        fill(clearance, OBSTACLE_CLIP);
         for cluster in CLUSTERS.iter().rev() {
             if cluster.trajectories & !collided == 0 {
                 continue;
             }
-            let beams = match self.near_set(cluster, close) {
-                Near::None => continue,
-                Near::Collides => {
-                    collided |= cluster.trajectories;
-                    continue;
+            let beams = candidates(shorter, &cluster.clip, close);
+            if beams[0] | beams[1] == 0 {
+                continue;
+            }
+            // The candidates within reach of some member (the clip plus the spread), side by
+            // side, and the nearest of them to the centre.
+            let [cx, cy] = cluster.centre;
+            let spread = cluster.spread;
+            let reach = OBSTACLE_CLIP + spread + REACH_MARGIN;
+            let reach2 = reach * reach;
+            let mut n = 0usize;
+            let mut m2 = reach2;
+            let mut gather = |mut bits: u32, base: usize| {
+                while bits != 0 {
+                    let j = (bits.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
+                    bits &= bits - 1;
+                    let [px, py] = points[j];
+                    let dx = px - cx;
+                    let dy = py - cy;
+                    let d2 = dx * dx + dy * dy;
+                    if d2 < reach2 {
+                        near[n & (SCAN_BEAMS - 1)] = [px, py];
+                        near_d2[n & (SCAN_BEAMS - 1)] = d2;
+                        n += 1;
+                        if d2 < m2 {
+                            m2 = d2;
+                        }
+                    }
                 }
-                Near::Beams(beams) => beams,
             };
-            for u in members(cluster) {
-                let trajectories = SAMPLE_TRAJECTORIES[u];
-                if trajectories & !collided == 0 {
+            gather(beams[0], 0);
+            gather(beams[1], 32);
+            if n == 0 {
+                // Every candidate is beyond the clip of every member.
+                continue;
+            }
+            // With `m` the distance from the centre to its nearest candidate and `s` the spread,
+            // every member is within `m + s` of that point, and a point farther than `m + 2s`
+            // from the centre is farther than `m + s` from every member: only the points within
+            // `m + 2s` of the centre can be a member's nearest (the near set).
+            let m = sqrt(m2);
+            if (m + spread) * (1.0 + 1.0e-5) + REACH_MARGIN < COLLISION_RADIUS {
+                // Every member is within the collision radius of the centre's nearest point.
+                collided |= cluster.trajectories;
+                continue;
+            }
+            // Generous against rounding: a relative 1e-5 and the 1 mm margin.
+            let limit = clipped((m + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN, reach);
+            let limit2 = limit * limit;
+            let n = n.min(SCAN_BEAMS);
+            let mut k = 0usize;
+            for i in 0..n {
+                if near_d2[i] < limit2 {
+                    near[k & (SCAN_BEAMS - 1)] = near[i];
+                    k += 1;
+                }
+            }
+            let set = &near[..k.min(n)];
+            let start = usize::from(cluster.samples[0]);
+            let end = usize::from(cluster.samples[1]);
+            let (Some(samples), Some(trajectories), Some(clearance)) = (
+                SAMPLE_POINTS.get(start..end),
+                SAMPLE_TRAJECTORIES.get(start..end),
+                clearance.get_mut(start..end),
+            ) else {
+                continue;
+            };
+            for ((&[sx, sy], &of), c) in samples.iter().zip(trajectories).zip(clearance) {
+                if of & !collided == 0 {
                     continue;
                 }
-                let best = self.nearest(u, beams, clip2);
+                let mut best = clip2;
+                for &[px, py] in set {
+                    let dx = px - sx;
+                    let dy = py - sy;
+                    let d2 = dx * dx + dy * dy;
+                    if d2 < best {
+                        best = d2;
+                    }
+                }
                 if best < collide2 {
                     // Its trajectories collide: its clearance is never read.
-                    collided |= trajectories;
+                    collided |= of;
                 } else if best < clip2 {
-                    self.clearance[u] = clipped(sqrt(best), OBSTACLE_CLIP);
+                    // At least the collision radius squared: the root's test is not needed.
+                    *c = clipped(newton_sqrt(best), OBSTACLE_CLIP);
+                    touched |= of;
                 }
             }
         }
-        Obstacles::Measured(!collided)
-    }
-
-    /// The beams that can be the nearest scan point within the clip of some member of `cluster`.
-    ///
-    /// With `m` the distance from the centre to its nearest candidate and `s` the spread, every
-    /// member is within `m + s` of that point, and a point farther than `m + 2s` from the centre
-    /// is farther than `m + s` from every member: only the points within `m + 2s` of the centre
-    /// (and within the clip + `s`) can be a member's nearest within the clip.
-    fn near_set(&mut self, cluster: &Cluster, close: Beams) -> Near {
-        let beams = self.candidates(&cluster.clip, close);
-        if beams[0] | beams[1] == 0 {
-            return Near::None;
-        }
-        let [cx, cy] = cluster.centre;
-        let mut m2 = f32::MAX;
-        for (word, base) in [(beams[0], 0), (beams[1], 32)] {
-            let mut bits = word;
-            while bits != 0 {
-                let j = (bits.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
-                bits &= bits - 1;
-                let dx = self.points[j][0] - cx;
-                let dy = self.points[j][1] - cy;
-                let d2 = dx * dx + dy * dy;
-                self.centre_d2[j] = d2;
-                if d2 < m2 {
-                    m2 = d2;
-                }
-            }
-        }
-        let spread = cluster.spread;
-        let reach = OBSTACLE_CLIP + spread + REACH_MARGIN;
-        if m2 >= reach * reach {
-            // Every candidate is beyond the clip of every member.
-            return Near::None;
-        }
-        let m = sqrt(m2);
-        if (m + spread) * (1.0 + 1.0e-5) + REACH_MARGIN < COLLISION_RADIUS {
-            // Every member is within the collision radius of the centre's nearest point.
-            return Near::Collides;
-        }
-        // Generous against rounding: a relative 1e-5 and the 1 mm margin.
-        let near = (m + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN;
-        let limit = clipped(near, reach);
-        let limit2 = limit * limit;
-        let mut out = [0u32; 2];
-        for (w, (word, base)) in [(beams[0], 0), (beams[1], 32)].into_iter().enumerate() {
-            let mut bits = word;
-            while bits != 0 {
-                let k = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                if self.centre_d2[(k + base) & (SCAN_BEAMS - 1)] < limit2 {
-                    out[w] |= 1 << k;
-                }
-            }
-        }
-        Near::Beams(out)
-    }
-
-    /// The beams that may come within `reach`'s distance of a cluster's samples: its window (or
-    /// the beams shorter than the distance, whatever their bearing) within its band of range bins.
-    #[inline]
-    fn candidates(&self, reach: &Reach, close: Beams) -> Beams {
-        let lo = self.shorter[usize::from(reach.bins[0]) & (SHORTER - 1)];
-        let hi = self.shorter[usize::from(reach.bins[1]) & (SHORTER - 1)];
-        [
-            (reach.window[0] | close[0]) & hi[0] & !lo[0],
-            (reach.window[1] | close[1]) & hi[1] & !lo[1],
-        ]
-    }
-
-    /// The smallest squared distance from sample `u` to one of `beams`, or `limit2` if none is
-    /// closer.
-    #[inline]
-    fn nearest(&self, u: usize, beams: Beams, limit2: f32) -> f32 {
-        let [sx, sy] = SAMPLE_POINTS[u & (SCRATCH - 1)];
-        let mut best = limit2;
-        let points = &self.points;
-        // The two halves written out: a loop over a two-element array of (mask, base) pairs costs
-        // stack traffic per sample on a Cortex-M4.
-        let mut scan = |mut bits: u32, base: usize| {
-            while bits != 0 {
-                let j = (bits.trailing_zeros() as usize + base) & (SCAN_BEAMS - 1);
-                bits &= bits - 1;
-                let dx = points[j][0] - sx;
-                let dy = points[j][1] - sy;
-                let d2 = dx * dx + dy * dy;
-                if d2 < best {
-                    best = d2;
-                }
-            }
-        };
-        scan(beams[0], 0);
-        scan(beams[1], 32);
-        best
-    }
-
-    /// Sets the clearance of every sample to `value` (the unused slots above stay 0).
-    #[inline]
-    fn fill(&mut self, value: f32) {
-        // Four at a time, written out: a store-and-count loop spends three instructions per slot.
-        for c in self.clearance[..UNIQUE_SAMPLES.next_multiple_of(4)].chunks_exact_mut(4) {
-            c[0] = value;
-            c[1] = value;
-            c[2] = value;
-            c[3] = value;
+        Obstacles::Measured {
+            allowed: !collided,
+            touched,
         }
     }
 
     /// Sums the per-sample clearance (`self.clearance`) along every allowed trajectory, scaled
     /// to ten samples and divided by `clip`, into feature `f`: the shared heads once, then each
     /// trajectory's tail, in order along it (the same sum, bit for bit, as one pass: padding
-    /// adds the clearance of the unused slot `PAD_SAMPLE`, which stays 0).
-    fn sum_rows(&self, allowed: u64, f: usize, clip: f32, rows: &mut [Features; MAX_ACTIONS]) {
+    /// adds the clearance of the unused slot `PAD_SAMPLE`, which stays 0). A trajectory not in
+    /// `touched` has the clip at every sample: its sum is exactly ten clips, and it reads
+    /// [`SAMPLES`] without the sum (a sum of clips, a power of two, is exact).
+    fn sum_rows(
+        &self,
+        allowed: u64,
+        touched: u64,
+        f: usize,
+        clip: f32,
+        rows: &mut [Features; MAX_ACTIONS],
+    ) {
+        for_each_action(allowed & !touched, |a| rows[a][f] = SAMPLES as f32);
+        let todo = allowed & touched;
+        if todo == 0 {
+            return;
+        }
         let c = &self.clearance;
         let at = |u: u16| c[usize::from(u) & (SCRATCH - 1)];
         let mut heads = [0.0f32; HEAD_COUNT];
@@ -473,7 +465,7 @@ impl Evaluator {
                 *sum += at(u);
             }
         }
-        for_each_action(allowed, |a| {
+        for_each_action(todo, |a| {
             // Written out: a loop of six costs a counter and a branch per sample on a Cortex-M4.
             let [t0, t1, t2, t3, t4, t5] = TAIL_OF[a];
             let mut sum = heads[usize::from(HEAD_OF[a]) & (HEAD_COUNT - 1)];
@@ -500,9 +492,7 @@ impl Evaluator {
         // for that object (tested on squares, so the root is taken only where it matters).
         let mut objects = [Disc::FAR; MAX_OBJECTS];
         let mut n = 0;
-        let mut present = false;
         for o in obs.objects.iter().filter(|o| o.class == class) {
-            present = true;
             let reach = SEMANTIC_CLIP + o.radius + REACH_MARGIN;
             // An object whose reach misses every sample is left out.
             let whole = MAX_SAMPLE_RHO + reach;
@@ -520,12 +510,15 @@ impl Evaluator {
                 n += 1;
             }
         }
-        if !present {
+        if n == 0 {
+            // No object of the class, or none within reach: every clearance is the clip, and
+            // every sum ten clips (an absent class reads the same).
             for_each_action(allowed, |a| rows[a][f] = SAMPLES as f32);
             return;
         }
         let objects = &objects[..n];
-        self.fill(SEMANTIC_CLIP);
+        fill(&mut self.clearance, SEMANTIC_CLIP);
+        let mut touched = 0u64;
         for cluster in &CLUSTERS {
             let needed = Needed::of(cluster, allowed);
             if needed == Needed::None {
@@ -544,6 +537,7 @@ impl Evaluator {
             if near == 0 {
                 continue;
             }
+            touched |= cluster.trajectories;
             let centre;
             (near, centre) = if near & (near - 1) == 0 {
                 let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
@@ -580,7 +574,7 @@ impl Evaluator {
                 self.clearance[u] = c;
             }
         }
-        self.sum_rows(allowed, f, SEMANTIC_CLIP, rows);
+        self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
     }
 
     /// The semantic clearance of the members of `cluster` when one object `o` alone can be the
@@ -597,8 +591,9 @@ impl Evaluator {
         centre: f32,
     ) {
         let spread = cluster.spread + REACH_MARGIN;
-        // Every member within reach (no test of d² against it), outside the disc (d > 0), and
-        // nearer than the clip beyond the disc (d < clip).
+        // Every member within reach (no test of d² against it), outside the disc by more than a
+        // millimetre (d > 0, and no test of the root's argument), and nearer than the clip
+        // beyond the disc (d < clip).
         let settled = centre + spread < o.reach
             && centre - spread > o.radius
             && centre + spread < SEMANTIC_CLIP + o.radius;
@@ -614,7 +609,7 @@ impl Evaluator {
         if settled && needed == Needed::All {
             for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
                 let (dx, dy) = (sx - ox, sy - oy);
-                *c = sqrt(dx * dx + dy * dy) - radius;
+                *c = newton_sqrt(dx * dx + dy * dy) - radius;
             }
             return;
         }
@@ -632,6 +627,33 @@ impl Evaluator {
             };
         }
     }
+}
+
+/// Sets the clearance of every sample to `value` (the unused slots above stay 0).
+#[inline]
+fn fill(clearance: &mut [f32; SCRATCH], value: f32) {
+    // Four at a time, written out: a store-and-count loop spends three instructions per slot.
+    for c in clearance[..UNIQUE_SAMPLES.next_multiple_of(4)].chunks_exact_mut(4) {
+        c[0] = value;
+        c[1] = value;
+        c[2] = value;
+        c[3] = value;
+    }
+}
+
+/// The beams that may come within `reach`'s distance of a cluster's samples: its window (with
+/// the beams shorter than the distance, whatever their bearing, for a cluster near the sensor)
+/// within its band of range bins.
+#[inline]
+fn candidates(shorter: &[Beams; SHORTER], reach: &Reach, close: Beams) -> Beams {
+    let lo = shorter[usize::from(reach.bins[0]) & (SHORTER - 1)];
+    let hi = shorter[usize::from(reach.bins[1]) & (SHORTER - 1)];
+    let (w0, w1) = if reach.behind {
+        (reach.window[0] | close[0], reach.window[1] | close[1])
+    } else {
+        (reach.window[0], reach.window[1])
+    };
+    [w0 & hi[0] & !lo[0], w1 & hi[1] & !lo[1]]
 }
 
 /// A semantic object for the evaluator: its disc, its reach (the semantic clip beyond its
@@ -706,25 +728,15 @@ fn for_each_action(mask: u64, mut f: impl FnMut(usize)) {
     }
 }
 
-/// The scan points that matter to the members of a cluster.
-#[derive(Clone, Copy)]
-enum Near {
-    /// None within the clip of any member.
-    None,
-    /// Every member collides: one point is within the collision radius of all of them.
-    Collides,
-    /// The points that can be a member's nearest within the clip.
-    Beams(Beams),
-}
-
 /// What the obstacle pass found.
 #[derive(Clone, Copy)]
 enum Obstacles {
     /// No scan point within reach of any sample: nothing collides, every clearance is the clip.
     Clear,
     /// The trajectories that do not collide (one bit per action); the clearances of their
-    /// samples are in `Evaluator::clearance`.
-    Measured(u64),
+    /// samples are in `Evaluator::clearance`, and `touched` has the trajectories with a sample
+    /// nearer than the clip to a scan point.
+    Measured { allowed: u64, touched: u64 },
 }
 
 /// Which members of a cluster the trajectories that do not collide use.
@@ -798,12 +810,11 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     // so they compare the same numbers whatever the last bit of the heading's sine.
     let (s, c) = libm::sincosf(p.heading);
     let mut out = [0.0f32; MAX_ACTIONS];
-    for (d, t) in out.iter_mut().zip(TRAJECTORIES.iter()) {
-        let e = t.end();
+    for (d, &[x, y]) in out.iter_mut().zip(END_POINTS.iter()) {
         // The cross-track part of the end in the reference's frame (as `path_and_side`'s
         // `local.y`), written out with `sincosf`.
-        let dx = e.x - p.x;
-        let dy = e.y - p.y;
+        let dx = x - p.x;
+        let dy = y - p.y;
         let cross = dy * c - dx * s;
         *d = libm::fabsf(cross);
     }
@@ -814,17 +825,21 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
 /// path reference (`along`, `cross`), and the end's `y`.
 fn path_and_side(obs: &Observation, allowed: u64, rows: &mut [Features; MAX_ACTIONS]) {
     let p = &obs.reference;
-    // Cosine and sine from `libm`: the same bits on the host and the car.
+    // Cosine and sine from `libm`: the same bits on the host and the car. One `sincosf` is the
+    // same bits as `sinf` and `cosf` apart (every heading in [-π, π] checked exhaustively) and
+    // reduces the angle once.
+    let (sin, cos) = libm::sincosf(p.heading);
     let reference = Isometry2::from_parts(
         Translation2::new(p.x, p.y),
-        UnitComplex::from_cos_sin_unchecked(libm::cosf(p.heading), libm::sinf(p.heading)),
+        UnitComplex::from_cos_sin_unchecked(cos, sin),
     );
     for_each_action(allowed, |a| {
-        let (row, end) = (&mut rows[a], TRAJECTORIES[a].end().position());
-        let local = reference.inverse_transform_point(&end);
+        let [x, y] = END_POINTS[a];
+        let row = &mut rows[a];
+        let local = reference.inverse_transform_point(&Point2::new(x, y));
         let error = libm::fabsf(local.x) + libm::fabsf(local.y);
         row[Feature::Path.index()] = if error < PATH_CLIP { error } else { PATH_CLIP };
-        row[Feature::Right.index()] = -RIGHT_SCALE * end.y;
+        row[Feature::Right.index()] = -RIGHT_SCALE * y;
     });
 }
 
@@ -837,6 +852,14 @@ pub fn beam_direction(j: usize) -> Option<(f32, f32)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::lattice::TRAJECTORIES;
+
+    #[test]
+    fn end_points_are_the_trajectories_ends() {
+        for (t, &[x, y]) in TRAJECTORIES.iter().zip(END_POINTS.iter()) {
+            assert_eq!([t.end().x, t.end().y], [x, y]);
+        }
+    }
 
     #[test]
     fn heads_and_tails_are_the_trajectories_samples() {

@@ -79,7 +79,7 @@
 //! ## Memory and time
 //!
 //! Nothing is allocated; everything lives in the caller's statics or stack. An [`agent::Agent`]
-//! is 9 688 bytes: the evaluator's scratch (3 328), the learner (under 100 B) and the feature
+//! is 10 232 bytes: the evaluator's scratch (3 840), the learner (under 100 B) and the feature
 //! tables of the last four ticks (1.5 KiB each). The lattice and the evaluator's precomputed
 //! tables are `static` data in flash.
 //!

@@ -1,5 +1,8 @@
 //! The car's tick within its instruction budget on the Cortex-M4F (issue 17): the worst act of
-//! the real ticks recorded from the simulator may cost at most 50 000 instructions.
+//! the real ticks recorded from the simulator may cost at most 50 000 instructions and their mean
+//! 30 000 (both guarded below their measured values until met); the clutter stress scene at most
+//! 60 000; the worst act and the worst update together, and the car node's tick with its MACs,
+//! under 150 000.
 //!
 //! The figures are `scripts/measure-firmware`'s (the qemu-insncount plugin under
 //! `-icount shift=0`, repeatable to the instruction; see `docs/firmware.md`), taken with
@@ -24,9 +27,24 @@ const WORST_TICK_BUDGET: u64 = 50_000;
 /// What this test enforces until the target is met: the measured worst and a little margin, so
 /// that a regression fails here. 72 306 instructions when the evaluator's first rewrite landed;
 /// 90 090 once protocol version 3 quantized the observations, which changed the states the
-/// recorded runs visit (the synthetic scenes moved by under 0.1%). Issue 17 stays open while this
-/// is above [`WORST_TICK_BUDGET`]; lower it to that when met.
-const WORST_TICK_GUARD: u64 = 95_000;
+/// recorded runs visit (the synthetic scenes moved by under 0.1%); 72 668 after the evaluator's
+/// second round (beams beyond their reach never binned, one `sincosf`). Issue 17 stays open while
+/// this is above [`WORST_TICK_BUDGET`]; lower it to that when met.
+const WORST_TICK_GUARD: u64 = 78_000;
+
+/// The mean real tick's act: issue 17's target.
+const MEAN_TICK_BUDGET: u64 = 30_000;
+
+/// The mean's guard until its target is met: 47 586 measured after the second round, and margin.
+const MEAN_TICK_GUARD: u64 = 50_000;
+
+/// The clutter stress scene's act (met: 50 929 measured after the second round).
+const CLUTTER_BUDGET: u64 = 60_000;
+
+/// One tick: the worst act and the worst update together, and the car node's tick (reassembly,
+/// MAC check, decoding, act, the answer sealed): under 150 000 (1 ms at 168 MHz). Both are met
+/// (108 200 and 102 627 after the second round).
+const TICK_BUDGET: u64 = 150_000;
 
 /// Runs `scripts/measure-firmware --summary` and reads its `key=value` lines.
 fn measure() -> Result<HashMap<String, u64>> {
@@ -51,7 +69,7 @@ fn measure() -> Result<HashMap<String, u64>> {
 
 #[test]
 #[ignore = "needs qemu-system-arm and the firmware images; .ci/run runs it"]
-fn worst_real_tick_is_within_its_guard() -> Result<()> {
+fn real_ticks_clutter_and_car_node_within_their_guards_and_budgets() -> Result<()> {
     let m = measure()?;
     let get = |k: &str| m.get(k).copied().context(format!("no {k} in the summary"));
     assert_eq!(
@@ -59,16 +77,44 @@ fn worst_real_tick_is_within_its_guard() -> Result<()> {
         WORST_TICK_BUDGET,
         "the script's budget and this test's"
     );
+    assert_eq!(
+        get("act_mean_budget")?,
+        MEAN_TICK_BUDGET,
+        "the script's budget and this test's"
+    );
+    assert_eq!(
+        get("clutter_budget")?,
+        CLUTTER_BUDGET,
+        "the script's budget and this test's"
+    );
     ensure!(get("act_n")? >= 30, "too few real ticks measured");
     let worst = get("act_max")?;
     assert!(
         worst <= WORST_TICK_GUARD,
         "the worst real tick costs {worst} instructions, over the guard of {WORST_TICK_GUARD} \
-         (the target is {WORST_TICK_BUDGET}) \
-         (mean {}, clutter scene {}, worst act + worst update {})",
-        get("act_mean")?,
-        get("clutter")?,
-        get("act_and_update")?
+         (the target is {WORST_TICK_BUDGET})"
+    );
+    let mean = get("act_mean")?;
+    assert!(
+        mean <= MEAN_TICK_GUARD,
+        "the real ticks cost {mean} instructions on average, over the guard of \
+         {MEAN_TICK_GUARD} (the target is {MEAN_TICK_BUDGET})"
+    );
+    let clutter = get("clutter")?;
+    assert!(
+        clutter <= CLUTTER_BUDGET,
+        "the clutter scene costs {clutter} instructions, over its budget of {CLUTTER_BUDGET}"
+    );
+    let both = get("act_and_update")?;
+    assert!(
+        both < TICK_BUDGET,
+        "the worst act and the worst update cost {both} instructions together, not under \
+         {TICK_BUDGET}"
+    );
+    let node = get("node")?;
+    assert!(
+        node < TICK_BUDGET,
+        "the car node's tick costs {node} instructions, not under {TICK_BUDGET}"
     );
     Ok(())
 }

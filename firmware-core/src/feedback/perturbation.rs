@@ -212,7 +212,7 @@ impl DeformedTrajectory {
             }
             f.samples().len()
         } else {
-            for (s, (p, q)) in samples.iter_mut().zip(f.poses.iter().zip(&t.poses)) {
+            for (s, (p, q)) in samples.iter_mut().zip(f.poses().iter().zip(t.poses())) {
                 let (p, q) = (centre(p), centre(q));
                 *s = [lerp(p[0], q[0], lambda), lerp(p[1], q[1], lambda)];
             }

@@ -38,7 +38,7 @@
 //! assert_eq!(straight.family, Family::Cruise);
 //! let end = straight.end();
 //! assert!((end.x - 1.0).abs() < 1e-6 && end.y == 0.0);
-//! assert_eq!(straight.poses.len(), SAMPLES);
+//! assert_eq!(straight.poses().len(), SAMPLES);
 //! ```
 
 mod params;
@@ -107,9 +107,8 @@ pub struct Trajectory {
     pub segments: [Segment; 2],
     /// The speed to drive it at (m/s).
     pub speed: f32,
-    /// [`SAMPLES`] poses evenly spaced along it, the last at its end.
-    pub poses: [Pose; SAMPLES],
-    sample_points: [[f32; 2]; SAMPLES],
+    /// Its action's index, into the tables of its poses and samples.
+    index: u8,
     sample_count: u8,
     mirror: u8,
 }
@@ -124,12 +123,19 @@ impl Trajectory {
     /// footprint ([`FOOTPRINT_CENTER_OFFSET`] ahead of the rear axle) every [`SAMPLE_SPACING`] of
     /// arc, the last at the end. Ten on a cruise trajectory, five on a creep one.
     pub fn samples(&self) -> &[[f32; 2]] {
-        &self.sample_points[..(self.sample_count as usize).clamp(1, SAMPLES)]
+        let points = &TRAJECTORY_SAMPLES[usize::from(self.index) & (MAX_ACTIONS - 1)];
+        &points[..(self.sample_count as usize).clamp(1, SAMPLES)]
+    }
+
+    /// [`SAMPLES`] poses evenly spaced along it, the last at its end (in a table of their own:
+    /// the car's image, which reads only the segments, does not hold them).
+    pub fn poses(&self) -> &'static [Pose; SAMPLES] {
+        &TRAJECTORY_POSES[usize::from(self.index) & (MAX_ACTIONS - 1)]
     }
 
     /// The last pose.
     pub fn end(&self) -> Pose {
-        self.poses[SAMPLES - 1]
+        self.poses()[SAMPLES - 1]
     }
 
     /// The action whose trajectory is this one mirrored along the car's axis.
@@ -157,6 +163,9 @@ pub(crate) struct Reach {
     pub(crate) window: [u32; 2],
     /// The band: range bins `bins[0]..bins[1]` (each [`RANGE_BIN_WIDTH`] wide).
     pub(crate) bins: [u8; 2],
+    /// The window is the half plane ahead of a centre nearer the sensor than the distance: the
+    /// beams shorter than the distance may reach it from behind, whatever their bearing.
+    pub(crate) behind: bool,
 }
 
 /// Nearby distinct samples, pruned together by the evaluator: the samples
@@ -220,7 +229,7 @@ mod tests {
             assert!((t.length() - len).abs() < 1e-6);
             // Consecutive samples are one step of arc length apart (chords of gentle arcs).
             let mut prev = Pose::default();
-            for p in &t.poses {
+            for p in t.poses() {
                 let d = (p.position() - prev.position()).norm();
                 assert!((d - len / SAMPLES as f32).abs() < 2e-3, "{a}: step {d}");
                 prev = *p;
@@ -247,11 +256,11 @@ mod tests {
             let m = t.mirror().get();
             assert!(m == a.get() || m.abs_diff(a.get()) == 1, "{a} <-> {m}");
         }
-        assert!(t0.poses.iter().all(|p| p.y == 0.0 && p.theta == 0.0));
+        assert!(t0.poses().iter().all(|p| p.y == 0.0 && p.theta == 0.0));
         for (a, t) in all() {
             let m = trajectory(t.mirror());
             assert_eq!(m.mirror(), a, "mirror is an involution");
-            for (p, q) in t.poses.iter().zip(m.poses.iter()) {
+            for (p, q) in t.poses().iter().zip(m.poses().iter()) {
                 assert_eq!((p.x, p.y, p.theta), (q.x, -q.y, -q.theta), "{a}");
             }
         }
@@ -275,14 +284,16 @@ mod tests {
     #[test]
     fn sample_tables_are_consistent() {
         for (a, t) in all() {
+            // Its samples are its own action's.
+            assert_eq!(usize::from(t.index), a.get());
             let n = t.samples().len();
             assert_eq!(n, if t.family == Family::Cruise { 10 } else { 5 });
             for (k, &u) in SAMPLE_OF[a.get()][..n].iter().enumerate() {
                 // Sample k sits (k + 1) · 0.1 m along the trajectory: pose 2k + 1 of a creep one.
                 let p = if t.family == Family::Cruise {
-                    t.poses[k]
+                    t.poses()[k]
                 } else {
-                    t.poses[2 * k + 1]
+                    t.poses()[2 * k + 1]
                 };
                 let [x, y] = SAMPLE_POINTS[u as usize];
                 assert_eq!([x, y], t.samples()[k]);

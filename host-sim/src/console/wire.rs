@@ -82,7 +82,7 @@ pub fn scene(
         .map(|a| {
             let t = trajectory(a);
             let mut points = vec![[0.0f32, 0.0]];
-            points.extend(t.poses.iter().take(SAMPLES).map(|p| [p.x, p.y]));
+            points.extend(t.poses().iter().take(SAMPLES).map(|p| [p.x, p.y]));
             json!(points)
         })
         .collect();

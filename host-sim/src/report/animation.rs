@@ -439,7 +439,12 @@ pub fn animation_bytes(
     let lattice: Vec<Vec<(f64, f64)>> = ActionIndex::all()
         .map(|a| {
             let mut pts = vec![(0.0, 0.0)];
-            pts.extend(trajectory(a).poses.iter().map(|p| (p.x as f64, p.y as f64)));
+            pts.extend(
+                trajectory(a)
+                    .poses()
+                    .iter()
+                    .map(|p| (p.x as f64, p.y as f64)),
+            );
             pts
         })
         .collect();

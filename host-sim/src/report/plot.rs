@@ -54,7 +54,7 @@ pub fn lattice_svg(out: &Path) -> Result<()> {
         for (k, &a) in actions.iter().enumerate() {
             let t = trajectory(a);
             let mut pts = vec![(0.0, 0.0)];
-            pts.extend(t.poses.iter().map(|p| (p.x as f64, p.y as f64)));
+            pts.extend(t.poses().iter().map(|p| (p.x as f64, p.y as f64)));
             let width = if a.get() == 0 { 3 } else { 1 };
             let series = chart
                 .draw_series(LineSeries::new(pts, colour.stroke_width(width)))

@@ -227,9 +227,9 @@ impl Tracker {
     /// Fixes `trajectory` in the world at `origin` (the pose where it was chosen).
     pub fn new(origin: Pose, trajectory: &Trajectory) -> Self {
         let iso = origin.isometry();
-        let mut points = Vec::with_capacity(trajectory.poses.len() + 1);
+        let mut points = Vec::with_capacity(trajectory.poses().len() + 1);
         points.push(origin.position());
-        for p in &trajectory.poses {
+        for p in trajectory.poses() {
             points.push(iso * Point2::new(p.x as f64, p.y as f64));
         }
         let lens = points.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
