@@ -473,7 +473,22 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
     // The page as it is now: the README's screenshot.
     screenshot(&c, "console.png").await;
 
-    // The E-stop, by its key.
+    // A reward of +½ by its key, and "incorrect" by its button: each about the learner's choice
+    // in the tick shown, each a correction.
+    press(&c, '9').await;
+    wait_corrections(&c, 6).await;
+    click_button(&c, "mark-incorrect").await;
+    wait_corrections(&c, 7).await;
+    // "The last ticks were bad", by its key.
+    press(&c, 'x').await;
+    wait_corrections(&c, 8).await;
+    let counts = text(&c, "teachings").await;
+    assert!(
+        counts.contains("1 rewards") && counts.contains("1 marks") && counts.contains("1 spans"),
+        "{counts}"
+    );
+
+    // The E-stop, by its key: the intervention, a correction too.
     press(&c, '\u{E00C}').await;
     until(
         &c,
@@ -481,7 +496,7 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
         "the E-stop",
     )
     .await;
-    assert_eq!(corrections(&c).await, 5, "an E-stop teaches nothing yet");
+    wait_corrections(&c, 9).await;
 
     let said = finish(&c, &mut teach, &out).await;
     assert!(said.iter().any(|l| l.contains("session ended")), "{said:?}");
@@ -501,18 +516,27 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
             "statement",
             "statement",
             "action",
+            "reward",
+            "correctness",
+            "span",
             "estop"
         ]
     );
     assert_eq!(feedback[0]["content"]["action"], clicked);
     assert_eq!(feedback[2]["content"]["statement"], "stay-on-path");
     assert_eq!(feedback[3]["content"]["statement"], "avoid-doors");
+    assert_eq!(feedback[5]["content"]["hundredths"], 50);
+    assert_eq!(feedback[6]["content"]["correct"], false);
+    assert_eq!(
+        feedback[7]["content"],
+        serde_json::json!({"ticks": 4, "good": false})
+    );
     assert!(
         feedback
             .iter()
             .all(|e| e["tick"].is_u64() && e["wall_time_ms"].is_u64())
     );
-    assert_eq!(lines(&dir.join("snapshots.jsonl")).len(), 5);
+    assert_eq!(lines(&dir.join("snapshots.jsonl")).len(), 9);
     let summary: Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["config"]["feedback"], "person");

@@ -110,6 +110,8 @@ pub fn scene(
         "features": Feature::ALL.iter().map(|f| f.name()).collect::<Vec<_>>(),
         "statements": statements,
         "kinds": Teaching::KINDS,
+        // How many ticks a good/bad label covers: the ticks the learner remembers.
+        "span_ticks": firmware_core::agent::TICK_HISTORY,
         "speeds": SPEEDS,
         "learner": config.learner.kind.name(),
         "teacher": teacher.preset,

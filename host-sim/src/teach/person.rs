@@ -12,7 +12,10 @@
 //! | clicks a trajectory ("go there") | `[` `]` choose, `Enter` | [`Feedback::Action`]: that trajectory |
 //! | in preference mode (`P`), answers which of the learner's choice and one other is better | `1` learner's, `2` the other | [`Feedback::Preference`] |
 //! | says a statement | `D` avoid doors, `S` avoid stairs, `C` avoid chairs, `L` stay on the path, `R` keep right, `W` keep off the walls | [`Feedback::Semantic`] with that one statement |
-//! | presses E-stop | `Esc` | none yet: the car stops (the session pauses; over a link the host sends nothing more and the car's watchdog stops it) and the event is recorded |
+//! | rewards the learner's action of the tick | `7` −1, `8` −½, `9` +½, `0` +1 | [`Feedback::Reward`]: that reward, in hundredths ([`firmware_core::feedback::REWARD_STEPS`] a unit) |
+//! | marks the learner's action of the tick correct or incorrect | `G` correct, `B` incorrect | [`Feedback::Correctness`] |
+//! | labels the last ticks good or bad | `V` good, `X` bad | [`Feedback::Span`] over the [`TICK_HISTORY`] ticks up to the one shown (the ticks the learner remembers): correct/incorrect of each one's action |
+//! | presses E-stop | `Esc` | [`Feedback::EStop`] (the intervention: the action of the current tick was unacceptable), and the car stops (the session pauses; over a link the host sends nothing more after it and the car's watchdog stops it) |
 //!
 //! The first four statements are the paper's (its semantic teacher speaks of doors, stairs,
 //! chairs and the path, section 6); "keep right" and "keep off the walls" are the rest of what the
@@ -29,15 +32,25 @@
 //! applies whatever feedback the effect gives, counts it as a correction and records it, and the
 //! replay reads it back from `feedback.jsonl`. A kind the learner takes later (an intervention for
 //! the E-stop, a reward, a correct/incorrect mark, good/bad over a span of ticks, a ranking, a
-//! perturbed trajectory) slots in the same way; the E-stop's arm is where an intervention feedback
-//! goes once `firmware-core` has one. A kind about several ticks (a span) needs more: today
-//! `Session::teach` judges a teaching against the one [`TickRound`] of the tick it names. The serialised form of
+//! perturbed trajectory) slots in the same way. A span is about several ticks, but names only its
+//! last: `Session::teach` judges it against that tick's [`TickRound`] (it needs a choice there),
+//! and the learner applies it to each tick of the span it still holds (firmware-core's
+//! `Agent::feedback`), so the session needs nothing more. The serialised form of
 //! a [`Teaching`] is what `feedback.jsonl` holds (`kind`, `content`), so old sessions keep
-//! replaying when kinds are added.
+//! replaying when kinds are added. A kind whose *meaning* changes is another matter: the E-stop,
+//! which taught nothing in session format 1, teaches since format 2, so a format-1 session is
+//! refused by the replay with a message naming both formats (`session.rs`, `SESSION_FORMAT`).
+//!
+//! Reward and correct/incorrect judge only the learner's action of the tick (firmware-core's
+//! `feedback::executed`): they say "not this one" or "this one" and never point at a better
+//! trajectory, and the size of a reward does not change the generalized hinge's step (it is
+//! recorded and travels all the same).
 
+#[cfg(doc)]
+use firmware_core::agent::TICK_HISTORY;
 use firmware_core::{
-    ActionFeedback, ActionIndex, ActionMask, Feature, Feedback, Polarity, PreferenceFeedback,
-    SemanticFeedback, Statement,
+    ActionFeedback, ActionIndex, ActionMask, CorrectnessFeedback, EStopFeedback, Feature, Feedback,
+    Polarity, PreferenceFeedback, RewardFeedback, SemanticFeedback, SpanFeedback, Statement,
 };
 use serde::{Deserialize, Serialize};
 
@@ -126,8 +139,25 @@ pub enum Teaching {
         /// What was said.
         statement: Spoken,
     },
-    /// The emergency stop.
+    /// The emergency stop: an intervention about the current tick.
     Estop {},
+    /// A reward for the learner's action of the tick.
+    Reward {
+        /// The reward in hundredths of a unit: −100 (−1, the worst) to 100 (+1, the best), not 0.
+        hundredths: i8,
+    },
+    /// The learner's action of the tick was correct, or incorrect.
+    Correctness {
+        /// Whether it was correct.
+        correct: bool,
+    },
+    /// The last ticks, up to and including the one named, were all good or all bad.
+    Span {
+        /// How many ticks: 1 to [`firmware_core::MAX_SPAN`].
+        ticks: u8,
+        /// Good or bad.
+        good: bool,
+    },
 }
 
 /// What a [`Teaching`] does.
@@ -161,24 +191,45 @@ pub enum TeachingError {
     /// A preference between a trajectory and itself.
     #[error("a preference needs two different trajectories, got {0} twice")]
     SameAction(ActionIndex),
+    /// A reward of 0 (which says nothing) or beyond ±1.
+    #[error("a reward is −100 to 100 hundredths and not 0, got {0}")]
+    BadReward(i8),
+    /// A span of no tick, or longer than [`firmware_core::MAX_SPAN`].
+    #[error("a span is 1 to {max} ticks, got {0}", max = firmware_core::MAX_SPAN)]
+    BadSpan(u8),
 }
 
 impl Teaching {
-    /// Its kind, as in `feedback.jsonl`: action, preference, statement, estop.
+    /// Its kind, as in `feedback.jsonl`: action, preference, statement, estop, reward,
+    /// correctness, span.
     pub const fn kind(&self) -> &'static str {
         match self {
             Teaching::Action { .. } => "action",
             Teaching::Preference { .. } => "preference",
             Teaching::Statement { .. } => "statement",
             Teaching::Estop {} => "estop",
+            Teaching::Reward { .. } => "reward",
+            Teaching::Correctness { .. } => "correctness",
+            Teaching::Span { .. } => "span",
         }
     }
 
     /// The names of every kind, in the order of the variants.
-    pub const KINDS: [&'static str; 4] = ["action", "preference", "statement", "estop"];
+    pub const KINDS: [&'static str; 7] = [
+        "action",
+        "preference",
+        "statement",
+        "estop",
+        "reward",
+        "correctness",
+        "span",
+    ];
 
     /// What it does in a tick where the learner did `round`; refused when it names a trajectory
-    /// that collided there, or corrects a tick without a choice. The E-stop is never refused.
+    /// that collided there, corrects a tick without a choice (for a span: its last tick), or
+    /// gives a reward of 0 or beyond ±1 or a span of 0 ticks or more than
+    /// [`firmware_core::MAX_SPAN`]. The E-stop is never refused: in a tick without a choice it stops the car and teaches
+    /// nothing (there was no action to judge).
     pub fn effect(&self, round: TickRound) -> Result<Effect, TeachingError> {
         let learn = |feedback: Feedback| {
             Ok(Effect {
@@ -212,13 +263,27 @@ impl Teaching {
             Teaching::Statement { statement } => learn(Feedback::Semantic(
                 SemanticFeedback::new().with(statement.statement()),
             )),
-            // The car stops and the event is kept. firmware-core has an E-stop feedback now
-            // (`EStopFeedback`, issue 15: "the executed action was unacceptable"); the console
-            // does not send it yet, so a person's E-stop teaches nothing.
+            // The intervention: the executed action was unacceptable (firmware-core's
+            // `EStopFeedback`), and the car stops.
             Teaching::Estop {} => Ok(Effect {
-                feedback: None,
+                feedback: round.chosen.map(|_| Feedback::EStop(EStopFeedback)),
                 stop: true,
             }),
+            Teaching::Reward { hundredths } => {
+                let reward = RewardFeedback { hundredths };
+                reward
+                    .check()
+                    .map_err(|_| TeachingError::BadReward(hundredths))?;
+                learn(Feedback::Reward(reward))
+            }
+            Teaching::Correctness { correct } => {
+                learn(Feedback::Correctness(CorrectnessFeedback { correct }))
+            }
+            Teaching::Span { ticks, good } => {
+                let span = SpanFeedback { ticks, good };
+                span.check().map_err(|_| TeachingError::BadSpan(ticks))?;
+                learn(Feedback::Span(span))
+            }
         }
     }
 }
@@ -329,24 +394,135 @@ mod tests {
     }
 
     #[test]
-    fn the_estop_stops_the_car_and_teaches_nothing_yet() {
+    fn the_estop_is_the_intervention_feedback_and_stops_the_car() {
         let e = Teaching::Estop {}.effect(round()).unwrap();
         assert_eq!(
             e,
             Effect {
-                feedback: None,
+                feedback: Some(Feedback::EStop(EStopFeedback)),
                 stop: true
             }
         );
-        // Also in a tick where everything collided, where nothing else is taken.
+        // In a tick where everything collided, where nothing else is taken, it still stops the
+        // car; there was no action to judge, so it teaches nothing.
         let blocked = TickRound {
             allowed: ActionMask::NONE,
             chosen: None,
         };
-        assert!(Teaching::Estop {}.effect(blocked).unwrap().stop);
+        assert_eq!(
+            Teaching::Estop {}.effect(blocked),
+            Ok(Effect {
+                feedback: None,
+                stop: true
+            })
+        );
         assert_eq!(
             Teaching::Statement {
                 statement: Spoken::AvoidDoors
+            }
+            .effect(blocked),
+            Err(TeachingError::NoChoice)
+        );
+    }
+
+    #[test]
+    fn each_reward_key_is_reward_feedback_of_that_size() {
+        // The page's four keys: −1, −½, +½, +1.
+        for (hundredths, value) in [(-100, -1.0), (-50, -0.5), (50, 0.5), (100, 1.0)] {
+            let e = Teaching::Reward { hundredths }.effect(round()).unwrap();
+            assert_eq!(
+                e,
+                Effect {
+                    feedback: Some(Feedback::Reward(RewardFeedback { hundredths })),
+                    stop: false
+                }
+            );
+            let Some(Feedback::Reward(r)) = e.feedback else {
+                unreachable!()
+            };
+            assert_eq!(r.value(), value);
+            assert_eq!(Some(r), RewardFeedback::new(value));
+        }
+        // Zero says nothing; beyond ±1 is off the scale. Nothing reaches the learner.
+        for bad in [0, 101, -101, i8::MIN, i8::MAX] {
+            assert_eq!(
+                Teaching::Reward { hundredths: bad }.effect(round()),
+                Err(TeachingError::BadReward(bad)),
+                "{bad}"
+            );
+        }
+        let blocked = TickRound {
+            allowed: ActionMask::NONE,
+            chosen: None,
+        };
+        assert_eq!(
+            Teaching::Reward { hundredths: 100 }.effect(blocked),
+            Err(TeachingError::NoChoice)
+        );
+    }
+
+    #[test]
+    fn correct_and_incorrect_are_correctness_feedback() {
+        for correct in [true, false] {
+            assert_eq!(
+                Teaching::Correctness { correct }.effect(round()),
+                Ok(Effect {
+                    feedback: Some(Feedback::Correctness(CorrectnessFeedback { correct })),
+                    stop: false
+                })
+            );
+        }
+        let blocked = TickRound {
+            allowed: ActionMask::NONE,
+            chosen: None,
+        };
+        assert_eq!(
+            Teaching::Correctness { correct: false }.effect(blocked),
+            Err(TeachingError::NoChoice)
+        );
+    }
+
+    #[test]
+    fn good_and_bad_over_the_last_ticks_are_span_feedback() {
+        // The page's two keys label the ticks the learner remembers.
+        for good in [true, false] {
+            let ticks = firmware_core::agent::TICK_HISTORY as u8;
+            assert_eq!(
+                Teaching::Span { ticks, good }.effect(round()),
+                Ok(Effect {
+                    feedback: Some(Feedback::Span(SpanFeedback { ticks, good })),
+                    stop: false
+                })
+            );
+        }
+        let longest = firmware_core::MAX_SPAN;
+        assert!(
+            Teaching::Span {
+                ticks: longest,
+                good: true
+            }
+            .effect(round())
+            .is_ok()
+        );
+        for bad in [0, longest + 1, u8::MAX] {
+            assert_eq!(
+                Teaching::Span {
+                    ticks: bad,
+                    good: false
+                }
+                .effect(round()),
+                Err(TeachingError::BadSpan(bad)),
+                "{bad}"
+            );
+        }
+        let blocked = TickRound {
+            allowed: ActionMask::NONE,
+            chosen: None,
+        };
+        assert_eq!(
+            Teaching::Span {
+                ticks: 4,
+                good: true
             }
             .effect(blocked),
             Err(TeachingError::NoChoice)
@@ -374,7 +550,23 @@ mod tests {
                 r#"{"kind":"statement","content":{"statement":"stay-on-path"}}"#,
             ),
             (Teaching::Estop {}, r#"{"kind":"estop","content":{}}"#),
+            (
+                Teaching::Reward { hundredths: -50 },
+                r#"{"kind":"reward","content":{"hundredths":-50}}"#,
+            ),
+            (
+                Teaching::Correctness { correct: true },
+                r#"{"kind":"correctness","content":{"correct":true}}"#,
+            ),
+            (
+                Teaching::Span {
+                    ticks: 4,
+                    good: false,
+                },
+                r#"{"kind":"span","content":{"ticks":4,"good":false}}"#,
+            ),
         ];
+        assert_eq!(cases.len(), Teaching::KINDS.len());
         for (t, json) in cases {
             assert_eq!(serde_json::to_string(&t).unwrap(), json);
             assert_eq!(serde_json::from_str::<Teaching>(json).unwrap(), t);
@@ -386,6 +578,11 @@ mod tests {
             r#"{"kind":"statement","content":{"statement":"fly"}}"#,
             r#"{"kind":"shout","content":{}}"#,
             r#"{"kind":"action"}"#,
+            r#"{"kind":"reward","content":{"hundredths":200}}"#,
+            r#"{"kind":"reward","content":{"hundredths":0.5}}"#,
+            r#"{"kind":"correctness","content":{"correct":"yes"}}"#,
+            r#"{"kind":"span","content":{"ticks":-1,"good":true}}"#,
+            r#"{"kind":"span","content":{"ticks":4}}"#,
         ] {
             assert!(serde_json::from_str::<Teaching>(bad).is_err(), "{bad}");
         }

@@ -18,8 +18,8 @@
 //!
 //! The record of tick `t` (a `steps.csv` row, the same columns as `host-sim run`) says whether
 //! feedback reached the learner during `t` (`corrected`; the feedback may be about a tick
-//! before), and `corrections` counts every feedback that reached it so far (an E-stop teaches
-//! nothing yet and is not counted). `latent_loss` and `teacher_action` are the scenario's
+//! before), and `corrections` counts every feedback that reached it so far (an E-stop is one:
+//! the intervention, about the current tick, unless that tick had no choice to judge). `latent_loss` and `teacher_action` are the scenario's
 //! programmatic teacher's view of the tick, as in `run`: the person can compare themselves with
 //! it, the learner never sees it.
 //!
@@ -61,8 +61,11 @@ use crate::world::car::Pose;
 use crate::world::sim::{Episode, ResetReason};
 use crate::world::teacher::{FeedbackKind, Judgement, Teacher};
 
-/// Version of the session files' layout (`summary.json`'s `session.format`).
-pub const SESSION_FORMAT: u32 = 1;
+/// Version of the session files' layout (`summary.json`'s `session.format`). 2: the E-stop
+/// teaches (the intervention feedback, issue 15), where in 1 it taught nothing, so a format-1
+/// session with an E-stop would replay differently and is refused; reward, correctness and
+/// span teachings are new.
+pub const SESSION_FORMAT: u32 = 2;
 
 /// The learner's link as a session sees it: a [`CarLink`] that may say how the link is doing.
 pub trait SessionLink: CarLink + Send {
@@ -981,18 +984,79 @@ mod tests {
     }
 
     #[test]
-    fn the_estop_is_recorded_about_now_and_teaches_nothing() {
+    fn the_estop_is_about_now_and_teaches_the_intervention() {
         let mut s = start(100);
         s.step().unwrap();
         let before = *s.snapshot();
+        let chosen = s.view().decision.action;
+        assert!(chosen.is_some());
         // The page may send any tick: the E-stop is about the current one.
         let e = s.teach(0, Teaching::Estop {}, 2000).unwrap();
-        assert!(e.stop && e.feedback.is_none());
+        assert!(e.stop);
+        assert_eq!(
+            e.feedback,
+            Some(firmware_core::Feedback::EStop(firmware_core::EStopFeedback))
+        );
         assert_eq!(s.entries()[0].tick, s.tick());
-        assert_eq!(*s.snapshot(), before);
-        assert_eq!(s.corrections(), 0);
-        assert!(s.snapshots().is_empty());
+        assert_ne!(*s.snapshot(), before);
+        assert_eq!(s.corrections(), 1);
+        assert_eq!(s.snapshots().len(), 1);
+        assert_eq!(s.snapshots()[0].tick, s.tick());
         assert_eq!(s.counts()["estop"], 1);
+    }
+
+    #[test]
+    fn a_span_teaches_about_the_ticks_the_learner_holds() {
+        let mut s = start(100);
+        for _ in 0..6 {
+            s.step().unwrap();
+        }
+        let before = *s.snapshot();
+        let t = s.tick();
+        let span = Teaching::Span {
+            ticks: TICK_HISTORY as u8,
+            good: false,
+        };
+        let e = s.teach(t, span, 10).unwrap();
+        assert!(matches!(e.feedback, Some(firmware_core::Feedback::Span(_))));
+        assert_ne!(*s.snapshot(), before);
+        assert_eq!((s.corrections(), s.entries().len()), (1, 1));
+        assert_eq!(s.counts()["span"], 1);
+        // Too long a span is refused and changes nothing.
+        let long = Teaching::Span {
+            ticks: firmware_core::MAX_SPAN + 1,
+            good: false,
+        };
+        let e = s.teach(t, long, 20).unwrap_err();
+        assert!(e.to_string().contains("a span is 1 to"), "{e}");
+        assert_eq!((s.corrections(), s.entries().len()), (1, 1));
+    }
+
+    #[test]
+    fn a_reward_and_a_mark_reach_the_learner_about_their_tick() {
+        let mut s = start(100);
+        s.step().unwrap();
+        s.step().unwrap();
+        let before = *s.snapshot();
+        let t = s.tick();
+        s.teach(t - 1, Teaching::Reward { hundredths: -100 }, 10)
+            .unwrap();
+        let after_reward = *s.snapshot();
+        assert_ne!(after_reward, before);
+        s.teach(t, Teaching::Correctness { correct: false }, 20)
+            .unwrap();
+        assert_ne!(*s.snapshot(), after_reward);
+        assert_eq!(s.corrections(), 2);
+        assert_eq!((s.entries()[0].tick, s.entries()[1].tick), (t - 1, t));
+        assert_eq!(s.counts()["reward"], 1);
+        assert_eq!(s.counts()["correctness"], 1);
+        // A reward of 0 is refused and changes nothing.
+        let e = s
+            .teach(t, Teaching::Reward { hundredths: 0 }, 30)
+            .unwrap_err();
+        assert!(matches!(e, TeachError::Refused { .. }), "{e}");
+        assert_eq!(s.corrections(), 2);
+        assert_eq!(s.entries().len(), 2);
     }
 
     /// The in-process learner, with a snapshot that fails once `broken` is set.
@@ -1061,24 +1125,45 @@ mod tests {
         for i in 0..120u32 {
             wall += 100;
             let now = s.tick();
-            let chosen = s.view().decision.action;
-            let other = another(&s);
-            let t = match i % 20 {
-                3 => Some((now, Teaching::Action { action: other })),
-                7 if chosen.is_some() => Some((
+            let d = s.view().decision;
+            let chosen = d.action;
+            // An allowed trajectory other than the learner's, if there is one.
+            let other = d.allowed.iter().find(|&a| Some(a) != chosen);
+            let t = match (i % 20, other, chosen) {
+                (3, Some(other), _) => Some((now, Teaching::Action { action: other })),
+                (7, Some(other), Some(chosen)) => Some((
                     now,
                     Teaching::Preference {
                         preferred: other,
-                        other: chosen.unwrap(),
+                        other: chosen,
                     },
                 )),
-                11 => Some((
+                (11, _, _) => Some((
                     now.saturating_sub(1),
                     Teaching::Statement {
                         statement: Spoken::ALL[(i as usize / 20) % Spoken::ALL.len()],
                     },
                 )),
-                13 => Some((now, Teaching::Estop {})),
+                (13, _, _) => Some((now, Teaching::Estop {})),
+                (15, _, _) => Some((
+                    now.saturating_sub(1),
+                    Teaching::Reward {
+                        hundredths: [-100, -50, 50, 100][(i as usize / 20) % 4],
+                    },
+                )),
+                (17, _, _) => Some((
+                    now,
+                    Teaching::Correctness {
+                        correct: i % 40 == 17,
+                    },
+                )),
+                (19, _, _) => Some((
+                    now,
+                    Teaching::Span {
+                        ticks: TICK_HISTORY as u8 + 2,
+                        good: i % 40 == 19,
+                    },
+                )),
                 _ => None,
             };
             if let Some((tick, t)) = t {
@@ -1208,5 +1293,23 @@ mod tests {
             Recorded::read(&tmp.path().join("nowhere")).unwrap_err()
         );
         assert!(e.contains("cannot read"), "{e}");
+    }
+
+    #[test]
+    fn a_session_of_format_1_is_refused_naming_both_formats() {
+        // Format 1's E-stop taught nothing; replaying it with this build's would not be the
+        // same session.
+        let tmp = tempfile::tempdir().unwrap();
+        record(tmp.path());
+        let path = tmp.path().join(names::SUMMARY);
+        let mut summary: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+        summary["session"]["format"] = 1.into();
+        std::fs::write(&path, serde_json::to_vec(&summary).unwrap()).unwrap();
+        let e = format!("{:#}", Recorded::read(tmp.path()).unwrap_err());
+        assert!(
+            e.contains("session format Some(1), this build reads 2"),
+            "{e}"
+        );
     }
 }

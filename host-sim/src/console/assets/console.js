@@ -61,6 +61,18 @@
     { group: 'Say', id: 'say-stay-on-path', label: 'Stay on the path', key: 'l', say: 'stay-on-path' },
     { group: 'Say', id: 'say-keep-right', label: 'Keep right', key: 'r', say: 'keep-right' },
     { group: 'Say', id: 'say-keep-off-walls', label: 'Keep off the walls', key: 'w', say: 'keep-off-walls' },
+    // Reward and correct/incorrect judge the learner's action of the tick shown; a reward is in
+    // hundredths of a unit (firmware-core's RewardFeedback, -100 to 100).
+    { group: 'Reward', id: 'reward-minus-1', label: '−1', key: '7', reward: -100 },
+    { group: 'Reward', id: 'reward-minus-half', label: '−½', key: '8', reward: -50 },
+    { group: 'Reward', id: 'reward-plus-half', label: '+½', key: '9', reward: 50 },
+    { group: 'Reward', id: 'reward-plus-1', label: '+1', key: '0', reward: 100 },
+    { group: 'Mark', id: 'mark-correct', label: 'Correct', key: 'g', correct: true },
+    { group: 'Mark', id: 'mark-incorrect', label: 'Incorrect', key: 'b', correct: false },
+    // Good or bad over the last ticks up to the one shown: as many as the learner remembers (the
+    // scene's span_ticks).
+    { group: 'Last ticks', id: 'span-good', label: 'Good', key: 'v', good: true },
+    { group: 'Last ticks', id: 'span-bad', label: 'Bad', key: 'x', good: false },
     { group: 'Stop', id: 'estop', label: 'E-STOP', key: 'Escape', keyLabel: 'Esc',
       run: () => teach({ kind: 'estop', content: {} }) },
     { group: 'Stop', id: 'finish', label: 'Finish session', key: null, run: finish },
@@ -71,9 +83,17 @@
   // kind without a label here shows its name.
   const KIND_LABELS = {
     action: 'go-there', preference: 'preferences', statement: 'statements', estop: 'E-stops',
+    reward: 'rewards', correctness: 'marks', span: 'spans',
   };
   for (const c of CONTROLS) {
     if (c.say) c.run = () => teach({ kind: 'statement', content: { statement: c.say } });
+    if (c.reward) c.run = () => teach({ kind: 'reward', content: { hundredths: c.reward } });
+    if (c.correct !== undefined) {
+      c.run = () => teach({ kind: 'correctness', content: { correct: c.correct } });
+    }
+    if (c.good !== undefined) {
+      c.run = () => scene && teach({ kind: 'span', content: { ticks: scene.span_ticks, good: c.good } });
+    }
   }
 
   // ---- connection ----------------------------------------------------------------------------
