@@ -41,7 +41,7 @@ use rayon::prelude::*;
 
 use crate::teach::experiment::{self, Mode, RunConfig, StartJitter};
 use crate::world::scenario::Scenario;
-use crate::world::teacher::{self, FeedbackKind, PAPER_KINDS, StatementSet, TeacherSpec};
+use crate::world::teacher::{self, FeedbackKind, PAPER_KINDS, StatementSet};
 use crate::world::{generator, registry};
 
 /// The worlds of the table: the built-in scenarios, then generated households
@@ -68,11 +68,11 @@ pub fn load_world(name: &str) -> Result<Scenario> {
         teacher::preset(teacher).with_context(|| format!("{name}: no teacher {teacher}"))?;
     let world = generator::generate(&generator::Options::new(seed))
         .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-    Ok(Scenario {
-        name: name.to_string(),
-        teacher: TeacherSpec::from_preset(preset),
-        ..(*world.scenario).clone()
-    })
+    Ok(generator::with_teacher(
+        &world.scenario,
+        name.to_string(),
+        preset,
+    ))
 }
 
 /// The random-answer probabilities of the table: none, and 20%.

@@ -49,7 +49,7 @@ use crate::teach::experiment::{self, Mode};
 use crate::world::generator;
 use crate::world::registry;
 use crate::world::scenario::Scenario;
-use crate::world::teacher::{self, FeedbackKind, PAPER_KINDS, TeacherSpec};
+use crate::world::teacher::{self, FeedbackKind, PAPER_KINDS};
 
 /// The fixed worlds: the paper's three households and the basement scenario.
 pub const FIXED: [&str; 4] = ["doors", "stairs-right", "stairs-chairs", "basement"];
@@ -205,11 +205,11 @@ impl Scenarios {
             World::Generated { seed, teacher } => {
                 let plan = self.generated.get(seed)?.as_ref()?;
                 let preset = teacher::preset(teacher)?;
-                Some(Arc::new(Scenario {
-                    name: world.name(),
-                    teacher: TeacherSpec::from_preset(preset),
-                    ..(**plan).clone()
-                }))
+                Some(Arc::new(generator::with_teacher(
+                    plan,
+                    world.name(),
+                    preset,
+                )))
             }
         }
     }

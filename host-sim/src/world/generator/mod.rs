@@ -103,4 +103,4 @@ pub use draft::{Summary, Why};
 pub use options::{
     DEFAULT_ATTEMPTS, HALLWAY_LIMITS, MAX_ATTEMPTS, Options, OptionsError, ValidOptions,
 };
-pub use world::{GenerateError, Refusal, World, generate};
+pub use world::{GenerateError, Refusal, World, generate, with_teacher};

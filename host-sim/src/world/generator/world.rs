@@ -129,6 +129,17 @@ fn preset_index(p: &Preset) -> usize {
         .unwrap_or(0)
 }
 
+/// A generated plan taught by the calibrated teacher `preset` instead of its own, named `name`
+/// (the worlds `gen-SEED/TEACHER` of the reproduction's claims across worlds and of the learner
+/// table).
+pub fn with_teacher(plan: &Scenario, name: String, preset: &'static Preset) -> Scenario {
+    Scenario {
+        name,
+        teacher: TeacherSpec::from_preset(preset),
+        ..plan.clone()
+    }
+}
+
 /// Generates a world: draws plans until one passes its checks (see the module documentation).
 pub fn generate(options: &Options) -> Result<World, GenerateError> {
     let options = options.check()?;
