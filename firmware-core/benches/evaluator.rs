@@ -1,6 +1,6 @@
-//! `cargo bench -p firmware-core --bench evaluator`: one full tick on the car (evaluate the 64
-//! trajectories + select) against the brute-force reference evaluator of the tests (+ select),
-//! on three scenes.
+//! `cargo bench -p firmware-core --features bench --bench evaluator`: one full tick on the car
+//! (evaluate the 64 trajectories + select) against the brute-force reference evaluator of the tests
+//! (+ select), on three scenes.
 
 use std::hint::black_box;
 

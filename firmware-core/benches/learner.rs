@@ -1,6 +1,6 @@
-//! `cargo bench -p firmware-core --bench learner`: the policy's select over 64 actions, one
-//! learning step (pseudo-loss + surrogate + update) per feedback kind and learner, and the
-//! learner's round (select + update, 64 actions, the default learner) beside its own floor, the
+//! `cargo bench -p firmware-core --features bench --bench learner`: the policy's select over 64
+//! actions, one learning step (pseudo-loss + surrogate + update) per feedback kind and learner, and
+//! the learner's round (select + update, 64 actions, the default learner) beside its own floor, the
 //! 64 × 6 dot products of the weights with the table, in the same run (group `round`).
 
 use std::hint::black_box;

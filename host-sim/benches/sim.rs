@@ -1,6 +1,7 @@
 //! Simulated steps per second of one run on one core, and its parts.
 //!
-//! `cargo bench -p host-sim --bench sim`. `host-sim bench` prints the same figure for a whole run.
+//! `cargo bench -p host-sim --features bench --bench sim`. `host-sim bench` prints the same figure
+//! for a whole run.
 
 use std::hint::black_box;
 use std::sync::Arc;

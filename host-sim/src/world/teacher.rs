@@ -72,7 +72,7 @@
 //! class clearance sum grows by about 3 units when the car passes half a metre farther from an
 //! object within 2 m, so a class weight of half the path weight makes the teacher give up up to
 //! about 1.5 m of end error for it; on the households this moves it to the far half of a 1.6–2 m
-//! hallway past a door or a stairwell, and no farther (checked in `tests/households.rs`).
+//! hallway past a door or a stairwell, and no farther (checked in `tests/integration/households.rs`).
 //! `right` is in decimetres of the end's lateral offset: 0.075 of the path weight per dm is 0.75
 //! per metre, below the path's 1, so the teacher leans right on the lattice's lane shifts but
 //! never leaves the path to turn right for its own sake (with `10·right > −path` it would circle
@@ -771,7 +771,7 @@ mod tests {
         // About 20% random, of which a few land on the teacher's own action by chance.
         assert!((0.15..0.23).contains(&off), "{off}");
         // Without random answers nothing is drawn: the stream of a preference teacher is the
-        // same as before the option existed (the golden of tests/determinism.rs pins it too).
+        // same as before the option existed (the golden of tests/integration/determinism.rs pins it too).
         let plain = TeacherSpec::from_preset(preset("doors").unwrap());
         let mut t = Teacher::new(plain, 5);
         let j = t.judge(&obs).unwrap();

@@ -12,8 +12,6 @@
 //! The attacker knows the car's epoch (it is no secret: it travels in every welcome). No
 //! assertion is about time.
 
-mod common;
-
 use std::collections::VecDeque;
 use std::io::{Read, Write};
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpStream};
@@ -22,7 +20,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use common::*;
+use crate::common::*;
 use firmware_core::observation::Observation;
 use firmware_core::{ActionFeedback, ActionIndex, Feedback, Learner, LearnerParams};
 use hil_mock::server::LinkBus;

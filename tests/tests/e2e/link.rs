@@ -31,9 +31,7 @@ use protocol::message::{ActionCommand, ConfigureMessage, Message, ObservationMes
 use protocol::secure::HostSecurity;
 use protocol::stream::Direction;
 
-mod common;
-
-use common::*;
+use crate::common::*;
 
 #[test]
 fn same_seed_same_bits_in_process_over_memory_udp_and_slcan() {
