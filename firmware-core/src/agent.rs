@@ -119,6 +119,12 @@ impl Agent {
         }
     }
 
+    /// An agent whose every byte is zero, so that a `static` holding it lands in `.bss` and
+    /// costs no flash (a `const` agent with any other learner is a 10 KiB initial value in
+    /// `.data`, copied from flash at start). Its learner is a placeholder that never moves (step
+    /// 0; not valid parameters): give it its learner with [`Agent::set_learner`] before it acts.
+    pub const BLANK: Self = Self::new(Learner::PLACEHOLDER);
+
     /// The learner.
     pub fn learner(&self) -> &Learner {
         &self.learner
