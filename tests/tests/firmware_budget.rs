@@ -131,8 +131,16 @@ fn real_ticks_clutter_car_node_and_image_within_their_guards_and_budgets() -> Re
         node < TICK_BUDGET,
         "the car node's tick costs {node} instructions, not under {TICK_BUDGET}"
     );
-    assert_eq!(get("flash_budget")?, FLASH_BUDGET, "the script's budget and this test's");
-    assert_eq!(get("ram_budget")?, RAM_BUDGET, "the script's budget and this test's");
+    assert_eq!(
+        get("flash_budget")?,
+        FLASH_BUDGET,
+        "the script's budget and this test's"
+    );
+    assert_eq!(
+        get("ram_budget")?,
+        RAM_BUDGET,
+        "the script's budget and this test's"
+    );
     let flash = get("flash")?;
     assert!(
         flash <= FLASH_BUDGET,

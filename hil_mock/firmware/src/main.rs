@@ -77,9 +77,10 @@ pub fn car_key() -> Key {
 /// The car node, completed at start: the default learner (the host configures its own), the
 /// default configuration and the built-in key.
 fn node() -> &'static mut CarNode {
-    let node = NODE
-        .take()
-        .init(CarConfig::DEFAULT, Learner::new(ValidLearnerParams::DEFAULT));
+    let node = NODE.take().init(
+        CarConfig::DEFAULT,
+        Learner::new(ValidLearnerParams::DEFAULT),
+    );
     node.install_key(&car_key(), EPOCH);
     node
 }
