@@ -373,6 +373,20 @@ mod tests {
     }
 
     #[test]
+    fn a_blank_agent_given_its_learner_is_a_new_one() {
+        let mut blank = Agent::BLANK;
+        assert_eq!(blank.learner().params().get().step, 0.0, "a placeholder");
+        let learner = Learner::new(LearnerParams::default().check().unwrap());
+        blank.set_learner(learner);
+        let mut new = Agent::new(learner);
+        assert_eq!(format!("{blank:?}"), format!("{new:?}"));
+        let obs = Observation::open_space();
+        assert_eq!(blank.act(1, &obs), new.act(1, &obs));
+        assert_eq!(blank.feedback(1, &fb(3)), new.feedback(1, &fb(3)));
+        assert_eq!(blank.learner(), new.learner());
+    }
+
+    #[test]
     fn a_bad_observation_changes_nothing() {
         let mut ag = agent();
         let obs = Observation::open_space();
