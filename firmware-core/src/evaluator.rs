@@ -542,27 +542,37 @@ impl Evaluator {
                 continue;
             }
             touched |= cluster.trajectories;
-            if near & (near - 1) == 0 {
+            let centre;
+            (near, centre) = if near & (near - 1) == 0 {
                 let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
                 let (dx, dy) = (cx - o.x, cy - o.y);
-                self.one_object(cluster, o, sqrt(dx * dx + dy * dy), put);
+                (near, sqrt(dx * dx + dy * dy))
+            } else {
+                dominant(objects, near, cluster)
+            };
+            if near & (near - 1) == 0 {
+                let k = near.trailing_zeros() as usize & (MAX_OBJECTS - 1);
+                self.one_object(cluster, &objects[k], centre);
                 continue;
             }
-            // Several objects: those that may be the nearest for some member, one at a time, the
-            // first written and each next one's clearance taken where it is less (the least of
-            // the clipped clearances, the same value whatever the order).
-            let (kept, distance) = dominant(objects, near, cluster);
-            let mut bits = kept;
-            let mut first = true;
-            while bits != 0 {
-                let k = bits.trailing_zeros() as usize & (MAX_OBJECTS - 1);
-                bits &= bits - 1;
-                if first {
-                    self.one_object(cluster, &objects[k], distance[k], put);
-                } else {
-                    self.one_object(cluster, &objects[k], distance[k], put_less);
+            for u in members(cluster) {
+                let [sx, sy] = SAMPLE_POINTS[u];
+                let mut c = SEMANTIC_CLIP;
+                let mut bits = near;
+                while bits != 0 {
+                    let o = &objects[bits.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                    bits &= bits - 1;
+                    let (dx, dy) = (sx - o.x, sy - o.y);
+                    let d2 = dx * dx + dy * dy;
+                    if d2 < o.reach2 {
+                        let d = sqrt(d2) - o.radius;
+                        let d = if d > 0.0 { d } else { 0.0 };
+                        if d < c {
+                            c = d;
+                        }
+                    }
                 }
-                first = false;
+                self.clearance[u] = c;
             }
         }
         self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
@@ -576,14 +586,7 @@ impl Evaluator {
     /// is beyond the clip and reads the clip either way), and within the clip as well (no clip),
     /// or every member inside the disc (0). `centre` is the distance from the cluster's centre to
     /// the object's.
-    #[inline(always)]
-    fn one_object(
-        &mut self,
-        cluster: &Cluster,
-        o: &Disc,
-        centre: f32,
-        put: fn(&mut f32, f32),
-    ) {
+    fn one_object(&mut self, cluster: &Cluster, o: &Disc, centre: f32) {
         let spread = cluster.spread + REACH_MARGIN;
         // Every member within reach, outside the disc by more than a millimetre (d > 0, and no
         // test of the root's argument), and nearer than the clip beyond the disc (d < clip).
@@ -602,7 +605,7 @@ impl Evaluator {
         if settled {
             for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
                 let (dx, dy) = (sx - ox, sy - oy);
-                put(c, newton_sqrt(dx * dx + dy * dy) - radius);
+                *c = newton_sqrt(dx * dx + dy * dy) - radius;
             }
             return;
         }
@@ -612,44 +615,27 @@ impl Evaluator {
             // the clip either way) nor of the root's sign.
             for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
                 let (dx, dy) = (sx - ox, sy - oy);
-                put(c, clipped(newton_sqrt(dx * dx + dy * dy) - radius, SEMANTIC_CLIP));
+                *c = clipped(newton_sqrt(dx * dx + dy * dy) - radius, SEMANTIC_CLIP);
             }
             return;
         }
         if centre + spread < radius {
             // Inside the disc by more than a millimetre: every clearance is 0.
             for c in clearance.iter_mut() {
-                put(c, 0.0);
+                *c = 0.0;
             }
             return;
         }
         for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
             let (dx, dy) = (sx - ox, sy - oy);
             let d2 = dx * dx + dy * dy;
-            put(
-                c,
-                if d2 < reach2 {
-                    let d = sqrt(d2) - radius;
-                    clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP)
-                } else {
-                    SEMANTIC_CLIP
-                },
-            );
+            *c = if d2 < reach2 {
+                let d = sqrt(d2) - radius;
+                clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP)
+            } else {
+                SEMANTIC_CLIP
+            };
         }
-    }
-}
-
-/// Writes a clearance.
-#[inline(always)]
-fn put(c: &mut f32, value: f32) {
-    *c = value;
-}
-
-/// Writes a clearance where it is less than the one written.
-#[inline(always)]
-fn put_less(c: &mut f32, value: f32) {
-    if value < *c {
-        *c = value;
     }
 }
 
@@ -703,10 +689,10 @@ impl Disc {
 }
 
 /// Of the objects `near` (bits into `objects`), those whose clearance may be the least of the
-/// class for some member of `cluster`, and the distances from the centre to each: an
+/// class for some member of `cluster`, and the distance from the centre to the last of them: an
 /// object whose clearance exceeds, for every member, another's largest possible one is left out
 /// (with a 1 mm margin, far above the rounding of these distances).
-fn dominant(objects: &[Disc], near: u32, cluster: &Cluster) -> (u32, [f32; MAX_OBJECTS]) {
+fn dominant(objects: &[Disc], near: u32, cluster: &Cluster) -> (u32, f32) {
     let spread = cluster.spread + REACH_MARGIN;
     let [cx, cy] = cluster.centre;
     let mut distance = [0.0f32; MAX_OBJECTS];
@@ -724,7 +710,7 @@ fn dominant(objects: &[Disc], near: u32, cluster: &Cluster) -> (u32, [f32; MAX_O
             }
         }
     }
-    let mut kept = 0;
+    let (mut kept, mut last) = (0, 0.0);
     let mut bits = near;
     while bits != 0 {
         let k = bits.trailing_zeros() as usize & (MAX_OBJECTS - 1);
@@ -733,9 +719,10 @@ fn dominant(objects: &[Disc], near: u32, cluster: &Cluster) -> (u32, [f32; MAX_O
             && distance[k] - o.radius - spread <= least_highest
         {
             kept |= 1 << k;
+            last = distance[k];
         }
     }
-    (kept, distance)
+    (kept, last)
 }
 
 /// Calls `f` with every action whose bit is set in `mask`, lowest first (on two 32-bit halves:
@@ -760,6 +747,12 @@ enum Obstacles {
     /// samples are in `Evaluator::clearance`, and `touched` has the trajectories with a sample
     /// nearer than the clip to a scan point.
     Measured { allowed: u64, touched: u64 },
+}
+
+/// The sample indices of a cluster's members, masked into the scratch arrays' range.
+#[inline]
+fn members(cluster: &Cluster) -> impl Iterator<Item = usize> {
+    (usize::from(cluster.samples[0])..usize::from(cluster.samples[1])).map(|u| u & (SCRATCH - 1))
 }
 
 /// Range bins below the first that holds only beams at least the clip plus the largest spread
