@@ -29,17 +29,20 @@ const WORST_TICK_BUDGET: u64 = 50_000;
 /// that a regression fails here. 72 306 instructions when the evaluator's first rewrite landed;
 /// 90 090 once protocol version 3 quantized the observations, which changed the states the
 /// recorded runs visit (the synthetic scenes moved by under 0.1%); 72 668 after the evaluator's
-/// second round (beams beyond their reach never binned, one `sincosf`). Issue 17 stays open while
-/// this is above [`WORST_TICK_BUDGET`]; lower it to that when met.
-const WORST_TICK_GUARD: u64 = 78_000;
+/// second round (beams beyond their reach never binned, one `sincosf`); 68 087 after the third
+/// (the semantic pass without per-member tests where a cluster's centre settles them). Issue 17
+/// stays open while this is above [`WORST_TICK_BUDGET`]; lower it to that when met.
+const WORST_TICK_GUARD: u64 = 70_000;
 
 /// The mean real tick's act: issue 17's target.
 const MEAN_TICK_BUDGET: u64 = 30_000;
 
-/// The mean's guard until its target is met: 47 586 measured after the second round, and margin.
-const MEAN_TICK_GUARD: u64 = 50_000;
+/// The mean's guard until its target is met: 47 586 measured after the second round, 43 406 after
+/// the third, and margin.
+const MEAN_TICK_GUARD: u64 = 45_000;
 
-/// The clutter stress scene's act (met: 50 929 measured after the second round).
+/// The clutter stress scene's act (met: 50 929 measured after the second round, 40 878 after the
+/// third).
 const CLUTTER_BUDGET: u64 = 60_000;
 
 /// One tick: the worst act and the worst update together, and the car node's tick (reassembly,
