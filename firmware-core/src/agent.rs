@@ -119,6 +119,12 @@ impl Agent {
         }
     }
 
+    /// An agent whose every byte is zero, so that a `static` holding it lands in `.bss` and
+    /// costs no flash (a `const` agent with any other learner is a 10 KiB initial value in
+    /// `.data`, copied from flash at start). Its learner is a placeholder that never moves (step
+    /// 0; not valid parameters): give it its learner with [`Agent::set_learner`] before it acts.
+    pub const BLANK: Self = Self::new(Learner::PLACEHOLDER);
+
     /// The learner.
     pub fn learner(&self) -> &Learner {
         &self.learner
@@ -364,6 +370,20 @@ mod tests {
         // The same record behind the tick: the same learning step.
         assert_eq!(own.feedback(1, &fb(3)), taking.feedback(1, &fb(3)));
         assert_eq!(own.learner(), taking.learner());
+    }
+
+    #[test]
+    fn a_blank_agent_given_its_learner_is_a_new_one() {
+        let mut blank = Agent::BLANK;
+        assert_eq!(blank.learner().params().get().step, 0.0, "a placeholder");
+        let learner = Learner::new(LearnerParams::default().check().unwrap());
+        blank.set_learner(learner);
+        let mut new = Agent::new(learner);
+        assert_eq!(format!("{blank:?}"), format!("{new:?}"));
+        let obs = Observation::open_space();
+        assert_eq!(blank.act(1, &obs), new.act(1, &obs));
+        assert_eq!(blank.feedback(1, &fb(3)), new.feedback(1, &fb(3)));
+        assert_eq!(blank.learner(), new.learner());
     }
 
     #[test]

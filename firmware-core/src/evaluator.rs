@@ -61,11 +61,13 @@
 //!    `m + 2s` (the near set), usually one to three;
 //! 4. clusters are visited farthest first: a sample's nearest distance decides its collision,
 //!    and the samples whose trajectories all collide already are skipped; then the semantic
-//!    features and the sums run over the samples of the trajectories that do not collide only;
-//!    a trajectory none of whose samples came within a clip reads ten clips without a sum.
-//!    Semantic objects are pruned per cluster the same way (reach, and an object that is farther
-//!    than another for every member), and where the centre's distance settles the tests for
-//!    every member at once, a loop without them runs.
+//!    features run over the clusters some trajectory that does not collide uses (every member
+//!    of such a cluster: measuring a member that no such trajectory uses costs less than testing
+//!    it), and the sums over the trajectories that do not collide only; a trajectory none of
+//!    whose samples came within a clip reads ten clips without a sum. Semantic objects are
+//!    pruned per cluster the same way (reach, and an object that is farther than another for
+//!    every member), and where the centre's distance settles a test for every member at once
+//!    (outside the disc, within the clip, inside the disc), a loop without it runs.
 //!
 //! Every skipped beam, object or test is provably irrelevant (each decision keeps a 1 mm margin,
 //! far above the rounding of these distances), so pruning changes no result.
@@ -520,8 +522,10 @@ impl Evaluator {
         fill(&mut self.clearance, SEMANTIC_CLIP);
         let mut touched = 0u64;
         for cluster in &CLUSTERS {
-            let needed = Needed::of(cluster, allowed);
-            if needed == Needed::None {
+            // A cluster no allowed trajectory uses is skipped; in the others every member is
+            // measured (a member only colliding trajectories use is written and never read:
+            // measuring it costs less than testing it).
+            if cluster.trajectories & allowed == 0 {
                 continue;
             }
             // The objects within reach of some member of the cluster.
@@ -548,13 +552,10 @@ impl Evaluator {
             };
             if near & (near - 1) == 0 {
                 let k = near.trailing_zeros() as usize & (MAX_OBJECTS - 1);
-                self.one_object(cluster, needed, allowed, &objects[k], centre);
+                self.one_object(cluster, &objects[k], centre);
                 continue;
             }
             for u in members(cluster) {
-                if needed == Needed::Some && SAMPLE_TRAJECTORIES[u] & allowed == 0 {
-                    continue;
-                }
                 let [sx, sy] = SAMPLE_POINTS[u];
                 let mut c = SEMANTIC_CLIP;
                 let mut bits = near;
@@ -577,23 +578,18 @@ impl Evaluator {
         self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
     }
 
-    /// The semantic clearance of the members of `cluster` when one object `o` alone can be the
-    /// nearest of its class to them. The same values, bit for bit, as the general loop: when the
-    /// centre's distance and the spread decide its tests for every member at once (each with a
-    /// 1 mm margin, far above the rounding of these distances), a loop without them runs.
-    /// `centre` is the distance from the cluster's centre to the object's.
-    fn one_object(
-        &mut self,
-        cluster: &Cluster,
-        needed: Needed,
-        allowed: u64,
-        o: &Disc,
-        centre: f32,
-    ) {
+    /// The semantic clearance of every member of `cluster` when one object `o` alone can be the
+    /// nearest of its class to them. The same values, bit for bit, as the general loop: where the
+    /// centre's distance and the spread decide a test for every member at once (each with a 1 mm
+    /// margin, far above the rounding of these distances), a loop without it runs: every member
+    /// outside the disc (no test of the root's sign nor of the reach: a member beyond the reach
+    /// is beyond the clip and reads the clip either way), and within the clip as well (no clip),
+    /// or every member inside the disc (0). `centre` is the distance from the cluster's centre to
+    /// the object's.
+    fn one_object(&mut self, cluster: &Cluster, o: &Disc, centre: f32) {
         let spread = cluster.spread + REACH_MARGIN;
-        // Every member within reach (no test of d² against it), outside the disc by more than a
-        // millimetre (d > 0, and no test of the root's argument), and nearer than the clip
-        // beyond the disc (d < clip).
+        // Every member within reach, outside the disc by more than a millimetre (d > 0, and no
+        // test of the root's argument), and nearer than the clip beyond the disc (d < clip).
         let settled = centre + spread < o.reach
             && centre - spread > o.radius
             && centre + spread < SEMANTIC_CLIP + o.radius;
@@ -606,17 +602,31 @@ impl Evaluator {
         ) else {
             return;
         };
-        if settled && needed == Needed::All {
+        if settled {
             for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
                 let (dx, dy) = (sx - ox, sy - oy);
                 *c = newton_sqrt(dx * dx + dy * dy) - radius;
             }
             return;
         }
-        for (u, (c, &[sx, sy])) in (start..).zip(clearance.iter_mut().zip(points)) {
-            if SAMPLE_TRAJECTORIES[u & (SCRATCH - 1)] & allowed == 0 {
-                continue;
+        if centre - spread > radius {
+            // Outside the disc by more than a millimetre, but some member may be beyond the
+            // clip: no test of the reach (a member beyond it is beyond the clip too, and reads
+            // the clip either way) nor of the root's sign.
+            for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
+                let (dx, dy) = (sx - ox, sy - oy);
+                *c = clipped(newton_sqrt(dx * dx + dy * dy) - radius, SEMANTIC_CLIP);
             }
+            return;
+        }
+        if centre + spread < radius {
+            // Inside the disc by more than a millimetre: every clearance is 0.
+            for c in clearance.iter_mut() {
+                *c = 0.0;
+            }
+            return;
+        }
+        for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
             let (dx, dy) = (sx - ox, sy - oy);
             let d2 = dx * dx + dy * dy;
             *c = if d2 < reach2 {
@@ -737,30 +747,6 @@ enum Obstacles {
     /// samples are in `Evaluator::clearance`, and `touched` has the trajectories with a sample
     /// nearer than the clip to a scan point.
     Measured { allowed: u64, touched: u64 },
-}
-
-/// Which members of a cluster the trajectories that do not collide use.
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum Needed {
-    /// None: skip the cluster.
-    None,
-    /// Some: test each member.
-    Some,
-    /// All of them.
-    All,
-}
-
-impl Needed {
-    #[inline]
-    fn of(cluster: &Cluster, allowed: u64) -> Self {
-        if cluster.trajectories & allowed == 0 {
-            Needed::None
-        } else if cluster.trajectories & !allowed == 0 {
-            Needed::All
-        } else {
-            Needed::Some
-        }
-    }
 }
 
 /// The sample indices of a cluster's members, masked into the scratch arrays' range.

@@ -401,6 +401,11 @@ impl<const N: usize> Reassembler<N> {
         }
     }
 
+    /// Sets the timeout between consecutive frames of a message (ms).
+    pub fn set_timeout(&mut self, timeout_ms: u32) {
+        self.timeout_ms = timeout_ms;
+    }
+
     /// Whether a message is in progress.
     pub fn is_receiving(&self) -> bool {
         matches!(self.state, State::Receiving { .. })

@@ -223,6 +223,13 @@ impl Inbox {
         self
     }
 
+    /// Sets the timeout between frames of every reassembler, in place.
+    pub fn set_timeout(&mut self, timeout_ms: u32) {
+        for r in &mut self.streams {
+            r.set_timeout(timeout_ms);
+        }
+    }
+
     /// The direction received.
     pub const fn direction(&self) -> Direction {
         self.direction

@@ -624,6 +624,17 @@ impl CarSecurity {
         }
     }
 
+    /// Every byte zero (no key, epoch 0, no counter left): [`crate::car::CarNodeSlot`]'s
+    /// storage, replaced by [`CarSecurity::unkeyed`] before the node is used.
+    pub(crate) const BLANK: Self = Self {
+        auth: None,
+        epoch: 0,
+        next_tx: None,
+        rx: ReplayWindow::new(),
+        refused: RefusalStats::ZERO,
+        newest: false,
+    };
+
     /// A car with `key` in `epoch` (0 is taken as 1: epoch 0 is the hello's).
     pub fn new(key: &Key, epoch: u32) -> Self {
         let mut s = Self::unkeyed();

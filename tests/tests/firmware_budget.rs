@@ -2,7 +2,8 @@
 //! the real ticks recorded from the simulator may cost at most 50 000 instructions and their mean
 //! 30 000 (both guarded below their measured values until met); the clutter stress scene at most
 //! 60 000; the worst act and the worst update together, and the car node's tick with its MACs,
-//! under 150 000.
+//! under 150 000; the car image's flash at most 64 KiB, and its RAM with stack (guarded until its
+//! 16 KiB target is met).
 //!
 //! The figures are `scripts/measure-firmware`'s (the qemu-insncount plugin under
 //! `-icount shift=0`, repeatable to the instruction; see `docs/firmware.md`), taken with
@@ -28,23 +29,40 @@ const WORST_TICK_BUDGET: u64 = 50_000;
 /// that a regression fails here. 72 306 instructions when the evaluator's first rewrite landed;
 /// 90 090 once protocol version 3 quantized the observations, which changed the states the
 /// recorded runs visit (the synthetic scenes moved by under 0.1%); 72 668 after the evaluator's
-/// second round (beams beyond their reach never binned, one `sincosf`). Issue 17 stays open while
-/// this is above [`WORST_TICK_BUDGET`]; lower it to that when met.
-const WORST_TICK_GUARD: u64 = 78_000;
+/// second round (beams beyond their reach never binned, one `sincosf`); 68 087 after the third
+/// (the semantic pass without per-member tests where a cluster's centre settles them). Issue 17
+/// stays open while this is above [`WORST_TICK_BUDGET`]; lower it to that when met.
+const WORST_TICK_GUARD: u64 = 70_000;
 
 /// The mean real tick's act: issue 17's target.
 const MEAN_TICK_BUDGET: u64 = 30_000;
 
-/// The mean's guard until its target is met: 47 586 measured after the second round, and margin.
-const MEAN_TICK_GUARD: u64 = 50_000;
+/// The mean's guard until its target is met: 47 586 measured after the second round, 43 406 after
+/// the third, and margin.
+const MEAN_TICK_GUARD: u64 = 45_000;
 
-/// The clutter stress scene's act (met: 50 929 measured after the second round).
+/// The clutter stress scene's act (met: 50 929 measured after the second round, 40 878 after the
+/// third).
 const CLUTTER_BUDGET: u64 = 60_000;
 
 /// One tick: the worst act and the worst update together, and the car node's tick (reassembly,
 /// MAC check, decoding, act, the answer sealed): under 150 000 (1 ms at 168 MHz). Both are met
 /// (108 200 and 102 627 after the second round).
 const TICK_BUDGET: u64 = 150_000;
+
+/// The car image's flash (text + data): issue 17's target, met (62 244 bytes once the node's
+/// initial value left `.data`).
+const FLASH_BUDGET: u64 = 65_536;
+
+/// The car image's RAM with its stack (statics + the deepest stack of a served session):
+/// issue 17's target.
+const RAM_BUDGET: u64 = 16_384;
+
+/// The RAM's guard until its target is met: 17 468 to 17 556 bytes measured once the node left
+/// `.data` and the stack figure became the car image's own (11 852 of statics; the session's
+/// deepest stack varies by about 100 bytes with where the millisecond interrupt lands), and
+/// margin. Lower it to [`RAM_BUDGET`] when met.
+const RAM_GUARD: u64 = 18_000;
 
 /// Runs `scripts/measure-firmware --summary` and reads its `key=value` lines.
 fn measure() -> Result<HashMap<String, u64>> {
@@ -69,7 +87,7 @@ fn measure() -> Result<HashMap<String, u64>> {
 
 #[test]
 #[ignore = "needs qemu-system-arm and the firmware images; .ci/run runs it"]
-fn real_ticks_clutter_and_car_node_within_their_guards_and_budgets() -> Result<()> {
+fn real_ticks_clutter_car_node_and_image_within_their_guards_and_budgets() -> Result<()> {
     let m = measure()?;
     let get = |k: &str| m.get(k).copied().context(format!("no {k} in the summary"));
     assert_eq!(
@@ -115,6 +133,27 @@ fn real_ticks_clutter_and_car_node_within_their_guards_and_budgets() -> Result<(
     assert!(
         node < TICK_BUDGET,
         "the car node's tick costs {node} instructions, not under {TICK_BUDGET}"
+    );
+    assert_eq!(
+        get("flash_budget")?,
+        FLASH_BUDGET,
+        "the script's budget and this test's"
+    );
+    assert_eq!(
+        get("ram_budget")?,
+        RAM_BUDGET,
+        "the script's budget and this test's"
+    );
+    let flash = get("flash")?;
+    assert!(
+        flash <= FLASH_BUDGET,
+        "the car image takes {flash} bytes of flash, over its budget of {FLASH_BUDGET}"
+    );
+    let ram = get("ram_with_stack")?;
+    assert!(
+        ram <= RAM_GUARD,
+        "the car image takes {ram} bytes of RAM with its stack, over the guard of {RAM_GUARD} \
+         (the target is {RAM_BUDGET})"
     );
     Ok(())
 }

@@ -426,7 +426,10 @@ impl OnlineLearner for Coactive {
     }
 }
 
+/// An explicit tag (`repr(u8)`, `Ogd` = 0) rather than a niche in a field: a zero byte is OGD, so
+/// [`Learner::PLACEHOLDER`] is all zeros.
 #[derive(Clone, Copy, PartialEq, Debug)]
+#[repr(u8)]
 enum Inner {
     Ogd(Ogd),
     Averaged(AveragedOgd),
@@ -454,6 +457,20 @@ impl Learner {
         };
         Self { params, inner }
     }
+
+    /// A stand-in whose every byte is zero (OGD, step 0, zero weights: it never moves), for
+    /// storage that must be all zeros to land in `.bss` ([`crate::agent::Agent::BLANK`]). Its
+    /// parameters are not valid ones (the step is 0): it is replaced before anything learns.
+    pub(crate) const PLACEHOLDER: Self = Self {
+        params: ValidLearnerParams::PLACEHOLDER,
+        inner: Inner::Ogd(Ogd {
+            w: [0.0; FEATURE_COUNT],
+            step: 0.0,
+            decaying: false,
+            radius: None,
+            t: 0,
+        }),
+    };
 
     /// The parameters it was built from.
     pub fn params(&self) -> &ValidLearnerParams {

@@ -186,6 +186,14 @@ impl ValidLearnerParams {
     /// `const` and `static` initialisers.
     pub const DEFAULT: Self = Self(LearnerParams::new(LearnerKind::AveragedOgd));
 
+    /// All zeros (OGD, step 0): not valid parameters; only [`crate::Learner::PLACEHOLDER`]'s.
+    pub(crate) const PLACEHOLDER: Self = Self(LearnerParams {
+        kind: LearnerKind::Ogd,
+        step: 0.0,
+        radius: None,
+        initial: [0.0; FEATURE_COUNT],
+    });
+
     /// The checked parameters.
     #[inline]
     pub const fn get(&self) -> &LearnerParams {

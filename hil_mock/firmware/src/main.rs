@@ -25,8 +25,8 @@
 //! one the call raises a HardFault and the image stops. The car's own image
 //! (`--no-default-features`) has no command line and no semihosting: it serves at once, and a
 //! panic resets the controller (the car would restore its state from flash).
-//! No allocator is linked: the node (and the bench agent) live in `ConstStaticCell`s, built at
-//! compile time and counted by the linker.
+//! No allocator is linked: the node (and the bench agent) live in `ConstStaticCell`s whose
+//! initial values are all zeros (`.bss`, no flash), completed in place at start.
 //!
 //! **The key** is built into the image: `build.rs` reads the key file named by `CAR_KEY_FILE`
 //! (`hil_mock keygen FILE`; the hosts use the same file) and refuses to build without one
@@ -52,7 +52,7 @@ mod uart;
 
 use cortex_m_rt::entry;
 use firmware_core::{Learner, ValidLearnerParams};
-use protocol::car::{CarConfig, CarNode};
+use protocol::car::{CarConfig, CarNode, CarNodeSlot};
 use protocol::secure::Key;
 #[cfg(feature = "cli")]
 use semihosting::{println, process};
@@ -74,29 +74,30 @@ pub fn car_key() -> Key {
     Key::new(key::KEY)
 }
 
-/// The node with the key installed.
-fn keyed(node: &mut CarNode) -> &mut CarNode {
+/// The car node, completed at start: the default learner (the host configures its own), the
+/// default configuration and the built-in key.
+fn node() -> &'static mut CarNode {
+    let node = NODE.take().init(
+        CarConfig::DEFAULT,
+        Learner::new(ValidLearnerParams::DEFAULT),
+    );
     node.install_key(&car_key(), EPOCH);
     node
 }
 
-/// The car node with the default learner (the host configures its own), built at compile time
-/// into .data: never on the stack.
-static NODE: ConstStaticCell<CarNode> = ConstStaticCell::new(CarNode::new(
-    CarConfig::DEFAULT,
-    Learner::new(ValidLearnerParams::DEFAULT),
-));
+/// The car node's storage: every byte zero, so it lands in `.bss` (no initial value in flash)
+/// and is completed in place at start ([`CarNodeSlot::init`]), never built on the stack.
+static NODE: ConstStaticCell<CarNodeSlot> = ConstStaticCell::new(CarNodeSlot::EMPTY);
 
-/// The agent of the measurement modes.
+/// The agent of the measurement modes (in `.bss` too; `modes::run` gives it its learner).
 #[cfg(feature = "bench")]
-static AGENT: ConstStaticCell<firmware_core::agent::Agent> = ConstStaticCell::new(
-    firmware_core::agent::Agent::new(Learner::new(ValidLearnerParams::DEFAULT)),
-);
+static AGENT: ConstStaticCell<firmware_core::agent::Agent> =
+    ConstStaticCell::new(firmware_core::agent::Agent::BLANK);
 
 #[cfg(feature = "cli")]
 #[entry]
 fn main() -> ! {
-    let node = keyed(NODE.take());
+    let node = node();
     if car_key().is_insecure() {
         println!(
             "WARNING: built with --features insecure: the public all-zero key; anyone who can \
@@ -135,7 +136,7 @@ fn main() -> ! {
 #[cfg(not(feature = "cli"))]
 #[entry]
 fn main() -> ! {
-    let node = keyed(NODE.take());
+    let node = node();
     let _ = serve::serve(node);
     // UART0 or the core peripherals were already taken: nothing to serve with.
     cortex_m::peripheral::SCB::sys_reset()
