@@ -42,11 +42,11 @@ pub const TRIALS: std::ops::RangeInclusive<u32> = 1..=MAX_TRIALS;
 pub const GRID_STEPS: std::ops::RangeInclusive<u32> = 10..=MAX_STEPS;
 /// Version of the shard files (3: the worlds' trials in `worlds.csv` and the kinds experiment's runs).
 pub const SHARD_FORMAT: u32 = 3;
-/// Generated worlds per teacher by default (`--worlds`): with the paper's grid, what a full
-/// reproduction runs in about a minute on two cores. Measured (README, "Reproducing the
-/// paper"): 22.5 s of CPU time with `--worlds 0`, 60.2 s with 8, 93.1 s with 16, so about 4.1 s
-/// per K; 93 s of CPU is about 47 s on two cores.
-pub const DEFAULT_WORLDS: u32 = 16;
+/// Generated worlds per teacher by default (`--worlds`): with the paper's grid and the kinds
+/// experiment, what a full reproduction runs in a minute on two idle cores, with room to spare.
+/// Measured on this project's 2-core machine, idle (README, "Reproducing the paper"): 60.6 s of
+/// wall time with 16 (114.2 s of CPU), 54.1 s with 14 (102.8 s of CPU).
+pub const DEFAULT_WORLDS: u32 = 14;
 /// Trials per setting in each world by default (`--world-trials`).
 pub const DEFAULT_WORLD_TRIALS: u32 = 2;
 /// Most generated worlds per teacher.
@@ -202,7 +202,7 @@ impl Default for Options {
 }
 
 impl Options {
-    /// The grid in words: "10 trials × 5000 steps, seed 0, 16 worlds per teacher × 2 trials" (and
+    /// The grid in words: "10 trials × 5000 steps, seed 0, 14 worlds per teacher × 2 trials" (and
     /// the teachers' scale if not 1).
     pub fn describe(&self) -> String {
         let mut d = format!(
@@ -223,7 +223,7 @@ impl Options {
     }
 
     /// The command-line options that make this grid: `--trials 10 --steps 5000 --seed 0
-    /// --worlds 16 --world-trials 2` (and `--teacher-scale F` if not 1).
+    /// --worlds 14 --world-trials 2` (and `--teacher-scale F` if not 1).
     pub fn flags(&self) -> String {
         let mut f = format!(
             "--trials {} --steps {} --seed {} --worlds {} --world-trials {}",
