@@ -64,7 +64,14 @@ impl Pose {
     /// The transform from this pose's frame (x forward, y left) to the world's.
     #[inline]
     pub fn isometry(&self) -> Isometry2<f64> {
-        Isometry2::from_parts(self.position().coords.into(), self.rotation())
+        self.isometry_turned(self.rotation())
+    }
+
+    /// [`Pose::isometry`] with the heading's rotation given (`self.rotation()`, computed once
+    /// by a caller that needs it more than once).
+    #[inline]
+    pub fn isometry_turned(&self, rotation: UnitComplex<f64>) -> Isometry2<f64> {
+        Isometry2::from_parts(self.position().coords.into(), rotation)
     }
 
     /// The world point of a point given in this pose's frame.
@@ -137,10 +144,20 @@ impl CarParams {
     /// Whether the footprint at `pose` overlaps a cell that is not free. Samples the rectangle
     /// on a grid no coarser than half a cell (edges included).
     pub fn footprint_hits(&self, map: &OccupancyGrid, pose: Pose) -> bool {
+        self.footprint_hits_turned(map, pose, pose.rotation())
+    }
+
+    /// [`CarParams::footprint_hits`] with the heading's rotation given (`pose.rotation()`).
+    pub fn footprint_hits_turned(
+        &self,
+        map: &OccupancyGrid,
+        pose: Pose,
+        rotation: UnitComplex<f64>,
+    ) -> bool {
         let step = map.resolution() / 2.0;
         let nx = libm::ceil(self.length / step) as usize;
         let ny = libm::ceil(self.width / step) as usize;
-        let iso = pose.isometry();
+        let iso = pose.isometry_turned(rotation);
         let centre = iso * Point2::new(self.center_offset, 0.0);
         // Every sample is within the half-diagonal of the centre, so its cell is at most
         // ⌊half-diagonal / resolution⌋ + 1 cells from the centre's along each axis (one more for
@@ -188,6 +205,22 @@ impl CarState {
 
     /// One physics step of `dt` towards the commanded steering and speed.
     pub fn step(&mut self, p: &CarParams, steering_cmd: f64, speed_cmd: f64, dt: f64) {
+        let rotation = self.pose.rotation();
+        self.step_turned(p, steering_cmd, speed_cmd, dt, rotation);
+    }
+
+    /// [`CarState::step`] with the heading's rotation given (`self.pose.rotation()`); returns
+    /// the new heading's (the same bits as `self.pose.rotation()` after the step: the arc's end
+    /// heading is the new heading unless it had to be wrapped).
+    pub fn step_turned(
+        &mut self,
+        p: &CarParams,
+        steering_cmd: f64,
+        speed_cmd: f64,
+        dt: f64,
+        rotation: UnitComplex<f64>,
+    ) -> UnitComplex<f64> {
+        let (cos_th, sin_th) = (rotation.cos_angle(), rotation.sin_angle());
         let target = steering_cmd.clamp(-p.max_steering, p.max_steering);
         let ds = p.steering_rate * dt;
         self.steering += (target - self.steering).clamp(-ds, ds);
@@ -197,13 +230,20 @@ impl CarState {
         let k = libm::tan(self.steering) / p.wheelbase;
         let th = self.pose.theta;
         if libm::fabs(k * s) < 1e-9 {
-            self.pose.x += s * libm::cos(th);
-            self.pose.y += s * libm::sin(th);
+            self.pose.x += s * cos_th;
+            self.pose.y += s * sin_th;
+            rotation
         } else {
             let th2 = th + k * s;
-            self.pose.x += (libm::sin(th2) - libm::sin(th)) / k;
-            self.pose.y -= (libm::cos(th2) - libm::cos(th)) / k;
+            let (cos2, sin2) = (libm::cos(th2), libm::sin(th2));
+            self.pose.x += (sin2 - sin_th) / k;
+            self.pose.y -= (cos2 - cos_th) / k;
             self.pose.theta = wrap_angle(th2);
+            if self.pose.theta.to_bits() == th2.to_bits() {
+                UnitComplex::from_cos_sin_unchecked(cos2, sin2)
+            } else {
+                self.pose.rotation()
+            }
         }
     }
 }
@@ -226,7 +266,12 @@ impl Tracker {
 
     /// Fixes `trajectory` in the world at `origin` (the pose where it was chosen).
     pub fn new(origin: Pose, trajectory: &Trajectory) -> Self {
-        let iso = origin.isometry();
+        Self::new_turned(origin, origin.rotation(), trajectory)
+    }
+
+    /// [`Tracker::new`] with the origin's rotation given (`origin.rotation()`).
+    pub fn new_turned(origin: Pose, rotation: UnitComplex<f64>, trajectory: &Trajectory) -> Self {
+        let iso = origin.isometry_turned(rotation);
         let mut points = Vec::with_capacity(trajectory.poses().len() + 1);
         points.push(origin.position());
         for p in trajectory.poses() {
@@ -248,6 +293,11 @@ impl Tracker {
 
     /// Steering command for the car at `pose`.
     pub fn steering(&self, pose: Pose, p: &CarParams) -> f64 {
+        self.steering_turned(pose, pose.rotation(), p)
+    }
+
+    /// [`Tracker::steering`] with the pose's rotation given (`pose.rotation()`).
+    pub fn steering_turned(&self, pose: Pose, turn: UnitComplex<f64>, p: &CarParams) -> f64 {
         // Project the rear axle onto the polyline: (segment, arc length).
         let at = pose.position();
         let mut best = (0usize, 0.0f64, f64::INFINITY);
@@ -291,7 +341,7 @@ impl Tracker {
             }
             g
         };
-        let local = pose.to_local(goal);
+        let local = pose.isometry_turned(turn).inverse_transform_point(&goal);
         let d2 = local.coords.norm_squared();
         if d2 < 1e-12 {
             return 0.0;
@@ -307,6 +357,41 @@ mod tests {
     use super::*;
     use firmware_core::ActionIndex;
     use firmware_core::lattice::trajectory;
+
+    #[test]
+    fn step_turned_returns_the_new_headings_rotation_bit_for_bit() {
+        // Circles both ways (the heading wraps at ±π), straight runs and a stop, from a few
+        // headings: the rotation handed on is the one the new pose gives.
+        let p = CarParams::MUSHR;
+        let (mut wrapped, mut arcs) = (0, 0);
+        for theta in [0.0, 3.1, -3.1, 1.0] {
+            let mut car = CarState::at(Pose {
+                x: 0.0,
+                y: 0.0,
+                theta,
+            });
+            let mut rotation = car.pose.rotation();
+            for i in 0..3000 {
+                let (cmd, speed) = match i / 500 {
+                    0 | 3 => (0.34, 1.0),
+                    1 | 4 => (-0.34, 1.5),
+                    2 => (0.0, 1.0),
+                    _ => (0.0, 0.0),
+                };
+                let before = car.pose.theta;
+                let mut plain = car;
+                plain.step(&p, cmd, speed, 0.01);
+                rotation = car.step_turned(&p, cmd, speed, 0.01, rotation);
+                assert_eq!(plain, car, "step and step_turned agree");
+                let want = car.pose.rotation();
+                assert_eq!(rotation.cos_angle().to_bits(), want.cos_angle().to_bits());
+                assert_eq!(rotation.sin_angle().to_bits(), want.sin_angle().to_bits());
+                arcs += usize::from(before != car.pose.theta);
+                wrapped += usize::from((before - car.pose.theta).abs() > 3.0);
+            }
+        }
+        assert!(arcs > 1000 && wrapped > 4, "{arcs} arcs, {wrapped} wraps");
+    }
 
     #[test]
     fn the_clearance_shortcut_gives_the_sampled_answer() {

@@ -48,6 +48,8 @@ use firmware_core::observation::{
 use firmware_core::observation::{ObjectList, SemanticObject};
 use firmware_core::{ActionIndex, MAX_ACTIONS};
 
+use nalgebra::Isometry2;
+
 use crate::world::car::{CarParams, CarState, Pose, Tracker, wrap_angle};
 use crate::world::scenario::Scenario;
 
@@ -264,14 +266,18 @@ impl Episode {
                 lap: false,
             };
         };
-        let tracker = Tracker::new(self.car.pose, trajectory(action));
+        // The heading's cosine and sine, once per pose (each use would compute the same bits).
+        let mut rotation = self.car.pose.rotation();
+        let tracker = Tracker::new_turned(self.car.pose, rotation, trajectory(action));
         let dt = TICK_SECONDS / PHYSICS_STEPS as f64;
         for _ in 0..PHYSICS_STEPS {
-            let steer = tracker.steering(self.car.pose, &self.params);
-            self.car.step(&self.params, steer, tracker.speed(), dt);
+            let steer = tracker.steering_turned(self.car.pose, rotation, &self.params);
+            rotation = self
+                .car
+                .step_turned(&self.params, steer, tracker.speed(), dt, rotation);
             if self
                 .params
-                .footprint_hits(&self.scenario.map, self.car.pose)
+                .footprint_hits_turned(&self.scenario.map, self.car.pose, rotation)
             {
                 self.reset();
                 return TickResult {
@@ -394,8 +400,17 @@ fn observe_within(
     let map = &scenario.map;
     let mut scan = Scan::EMPTY;
     // Each beam's direction: its unit vector in the car frame turned by the heading.
-    let (sin, cos) = (libm::sin(pose.theta), libm::cos(pose.theta));
+    let rotation = pose.rotation();
+    let (sin, cos) = (rotation.sin_angle(), rotation.cos_angle());
+    // Every cell within `clearance − 1` cells of the car's is free, and a ray leaves that square
+    // only after at least `clearance − 1` cells of travel: a beam whose cut is shorter by a cell
+    // more reads what its cast would give, SCAN_MAX_RANGE, without the cast.
+    let free = (f64::from(map.clearance_cells(pose.x, pose.y)) - 2.0) * map.resolution();
     for (j, (&(bc, bs), &cut)) in BEAM_DIRECTIONS.iter().zip(cut).enumerate() {
+        if cut <= free {
+            scan.ranges[j] = SCAN_MAX_RANGE;
+            continue;
+        }
         let along = (cos * bc - sin * bs, sin * bc + cos * bs);
         let r = map.raycast_along(pose.x, pose.y, along, cut);
         scan.ranges[j] = if r >= cut {
@@ -404,9 +419,10 @@ fn observe_within(
             (r as f32).min(SCAN_MAX_RANGE)
         };
     }
-    let objects = detect(scenario, pose);
+    let iso = pose.isometry_turned(rotation);
+    let objects = detect_from(scenario, pose, &iso);
     let (r, rh) = scenario.path.point_at(s + LOOKAHEAD);
-    let local = pose.to_local(r);
+    let local = iso.inverse_transform_point(&r);
     let pi = std::f32::consts::PI;
     let heading = (wrap_angle(rh - pose.theta) as f32).clamp(-pi, pi);
     protocol::quantize::quantize(&Observation {
@@ -423,6 +439,11 @@ fn observe_within(
 
 /// The semantic detections from `pose`.
 pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
+    detect_from(scenario, pose, &pose.isometry())
+}
+
+/// [`detect`] with the pose's transform given (`pose.isometry()`).
+fn detect_from(scenario: &Scenario, pose: Pose, iso: &Isometry2<f64>) -> ObjectList {
     let p = pose.position();
     let slack = LOS_SLACK_CELLS * scenario.map.resolution();
     let mut seen: Vec<(f64, usize)> = Vec::new();
@@ -437,7 +458,7 @@ pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
     for &(_, i) in seen.iter().take(MAX_OBJECTS) {
         let o = &scenario.objects[i];
         let (c, r) = o.disc_seen_from(&p);
-        let local = pose.to_local(c);
+        let local = iso.inverse_transform_point(&c);
         let obj = SemanticObject {
             class: o.class,
             x: local.x as f32,
