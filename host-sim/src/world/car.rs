@@ -23,7 +23,7 @@
 //! heading's `UnitComplex`, built from libm's cosine and sine as firmware-core's lattice does);
 //! all transcendental functions go through `libm`, so results are the same on every host.
 
-use firmware_core::lattice::Trajectory;
+use firmware_core::lattice::{SAMPLES, Trajectory};
 use nalgebra::{Isometry2, Point2, UnitComplex, Vector2};
 
 use crate::world::map::OccupancyGrid;
@@ -251,13 +251,30 @@ impl CarState {
 /// Pure pursuit along one lattice trajectory fixed in the world.
 #[derive(Clone, Debug)]
 pub struct Tracker {
-    /// Polyline: the start pose then the trajectory's poses, world frame.
-    points: Vec<Point2<f64>>,
-    /// Length of each polyline segment.
-    lens: Vec<f64>,
-    /// Heading at the end, for the straight extension.
-    end_heading: f64,
+    /// The polyline's segments: from the start pose through the trajectory's poses, world
+    /// frame.
+    segments: [Segment; SAMPLES],
+    /// The polyline's last point.
+    last: Point2<f64>,
+    /// Its length (the segments' lengths summed in order).
+    total: f64,
+    /// The heading at the end, for the straight extension, as a rotation.
+    end_rotation: UnitComplex<f64>,
     speed: f64,
+}
+
+/// One segment of a [`Tracker`]'s polyline, with what every projection onto it needs.
+#[derive(Clone, Copy, Debug, Default)]
+struct Segment {
+    /// Its start.
+    a: Point2<f64>,
+    /// Its end minus its start.
+    d: Vector2<f64>,
+    /// `d`'s squared length and length.
+    len2: f64,
+    len: f64,
+    /// The arc length at its start (the lengths before it summed in order).
+    s0: f64,
 }
 
 impl Tracker {
@@ -272,16 +289,28 @@ impl Tracker {
     /// [`Tracker::new`] with the origin's rotation given (`origin.rotation()`).
     pub fn new_turned(origin: Pose, rotation: UnitComplex<f64>, trajectory: &Trajectory) -> Self {
         let iso = origin.isometry_turned(rotation);
-        let mut points = Vec::with_capacity(trajectory.poses().len() + 1);
-        points.push(origin.position());
-        for p in trajectory.poses() {
-            points.push(iso * Point2::new(p.x as f64, p.y as f64));
+        let mut segments = [Segment::default(); SAMPLES];
+        let mut a = origin.position();
+        let mut s0 = 0.0;
+        for (segment, p) in segments.iter_mut().zip(trajectory.poses()) {
+            let b = iso * Point2::new(p.x as f64, p.y as f64);
+            let d = b - a;
+            let len = d.norm();
+            *segment = Segment {
+                a,
+                d,
+                len2: d.norm_squared(),
+                len,
+                s0,
+            };
+            s0 += len;
+            a = b;
         }
-        let lens = points.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
         Self {
-            points,
-            lens,
-            end_heading: origin.theta + trajectory.end().theta as f64,
+            segments,
+            last: a,
+            total: s0,
+            end_rotation: crate::world::car::rotation(origin.theta + trajectory.end().theta as f64),
             speed: trajectory.speed as f64,
         }
     }
@@ -298,48 +327,36 @@ impl Tracker {
 
     /// [`Tracker::steering`] with the pose's rotation given (`pose.rotation()`).
     pub fn steering_turned(&self, pose: Pose, turn: UnitComplex<f64>, p: &CarParams) -> f64 {
-        // Project the rear axle onto the polyline: (segment, arc length).
+        // Project the rear axle onto the polyline: (arc length, squared distance); the first
+        // nearest segment's.
         let at = pose.position();
-        let mut best = (0usize, 0.0f64, f64::INFINITY);
-        let mut s0 = 0.0;
-        let lens = &self.lens;
-        for i in 0..self.points.len() - 1 {
-            let (a, d) = (self.points[i], self.points[i + 1] - self.points[i]);
-            let len2 = d.norm_squared();
-            let len = lens[i];
-            let t = if len2 > 0.0 {
-                ((at - a).dot(&d) / len2).clamp(0.0, 1.0)
+        let mut best = (0.0f64, f64::INFINITY);
+        for g in &self.segments {
+            let t = if g.len2 > 0.0 {
+                ((at - g.a).dot(&g.d) / g.len2).clamp(0.0, 1.0)
             } else {
                 0.0
             };
-            let d2 = (at - (a + d * t)).norm_squared();
-            if d2 < best.2 {
-                best = (i, s0 + t * len, d2);
+            let d2 = (at - (g.a + g.d * t)).norm_squared();
+            if d2 < best.1 {
+                best = (g.s0 + t * g.len, d2);
             }
-            s0 += len;
         }
-        let total = s0;
-        let target_s = best.1 + Self::LOOKAHEAD;
-        let goal = if target_s >= total {
-            let last = self.points[self.points.len() - 1];
-            last + rotation(self.end_heading) * Vector2::new(target_s - total, 0.0)
+        let target_s = best.0 + Self::LOOKAHEAD;
+        let goal = if target_s >= self.total {
+            self.last + self.end_rotation * Vector2::new(target_s - self.total, 0.0)
         } else {
-            let mut s = 0.0;
-            let mut g = self.points[self.points.len() - 1];
-            for (i, len) in lens.iter().enumerate() {
-                if s + len >= target_s {
-                    let t = if *len > 0.0 {
-                        (target_s - s) / len
+            self.segments
+                .iter()
+                .find(|g| g.s0 + g.len >= target_s)
+                .map_or(self.last, |g| {
+                    let t = if g.len > 0.0 {
+                        (target_s - g.s0) / g.len
                     } else {
                         0.0
                     };
-                    let (a, b) = (self.points[i], self.points[i + 1]);
-                    g = a + (b - a) * t;
-                    break;
-                }
-                s += len;
-            }
-            g
+                    g.a + g.d * t
+                })
         };
         let local = pose.isometry_turned(turn).inverse_transform_point(&goal);
         let d2 = local.coords.norm_squared();

@@ -412,6 +412,13 @@ fn observe_within(
             continue;
         }
         let along = (cos * bc - sin * bs, sin * bc + cos * bs);
+        // Free a cell beyond the cut: the cast would reach the cut (no cast needed).
+        if cut < SCAN_MAX_RANGE as f64
+            && map.free_by_its_ends(pose.x, pose.y, along, cut + map.resolution())
+        {
+            scan.ranges[j] = SCAN_MAX_RANGE;
+            continue;
+        }
         let r = map.raycast_along(pose.x, pose.y, along, cut);
         scan.ranges[j] = if r >= cut {
             SCAN_MAX_RANGE
