@@ -154,24 +154,52 @@ impl CarParams {
         pose: Pose,
         rotation: UnitComplex<f64>,
     ) -> bool {
+        self.footprint_on(map).hits(map, pose, rotation)
+    }
+
+    /// What [`CarParams::footprint_hits`] computes from the car's size and `map`'s resolution
+    /// alone, once for many poses.
+    pub fn footprint_on(&self, map: &OccupancyGrid) -> Footprint {
         let step = map.resolution() / 2.0;
-        let nx = libm::ceil(self.length / step) as usize;
-        let ny = libm::ceil(self.width / step) as usize;
-        let iso = pose.isometry_turned(rotation);
-        let centre = iso * Point2::new(self.center_offset, 0.0);
         // Every sample is within the half-diagonal of the centre, so its cell is at most
         // ⌊half-diagonal / resolution⌋ + 1 cells from the centre's along each axis (one more for
         // rounding). If all cells that near are free, no sample can hit: the same answer as the
-        // loop below, without it.
+        // loop over the samples, without it.
         let reach = libm::sqrt(self.length * self.length + self.width * self.width) / 2.0;
-        let near = (reach / map.resolution()).floor() + 2.0;
+        Footprint {
+            car: *self,
+            nx: libm::ceil(self.length / step) as usize,
+            ny: libm::ceil(self.width / step) as usize,
+            near: (reach / map.resolution()).floor() + 2.0,
+        }
+    }
+}
+
+/// The footprint test of [`CarParams::footprint_hits`] for one car on maps of one resolution
+/// ([`CarParams::footprint_on`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Footprint {
+    car: CarParams,
+    /// Sample intervals along the length and the width.
+    nx: usize,
+    ny: usize,
+    /// A centre with a clearance above this many cells is clear.
+    near: f64,
+}
+
+impl Footprint {
+    /// [`CarParams::footprint_hits_turned`] on a map of the resolution this was made for.
+    pub fn hits(&self, map: &OccupancyGrid, pose: Pose, rotation: UnitComplex<f64>) -> bool {
+        let Self { car, nx, ny, near } = *self;
+        let iso = pose.isometry_turned(rotation);
+        let centre = iso * Point2::new(car.center_offset, 0.0);
         if (map.clearance_cells(centre.x, centre.y) as f64) > near {
             return false;
         }
         for i in 0..=nx {
-            let u = -self.length / 2.0 + self.length * i as f64 / nx as f64;
+            let u = -car.length / 2.0 + car.length * i as f64 / nx as f64;
             for j in 0..=ny {
-                let v = -self.width / 2.0 + self.width * j as f64 / ny as f64;
+                let v = -car.width / 2.0 + car.width * j as f64 / ny as f64;
                 let p = centre + iso.rotation * Vector2::new(u, v);
                 if map.is_blocked(p.x, p.y) {
                     return true;

@@ -269,16 +269,14 @@ impl Episode {
         // The heading's cosine and sine, once per pose (each use would compute the same bits).
         let mut rotation = self.car.pose.rotation();
         let tracker = Tracker::new_turned(self.car.pose, rotation, trajectory(action));
+        let footprint = self.params.footprint_on(&self.scenario.map);
         let dt = TICK_SECONDS / PHYSICS_STEPS as f64;
         for _ in 0..PHYSICS_STEPS {
             let steer = tracker.steering_turned(self.car.pose, rotation, &self.params);
             rotation = self
                 .car
                 .step_turned(&self.params, steer, tracker.speed(), dt, rotation);
-            if self
-                .params
-                .footprint_hits_turned(&self.scenario.map, self.car.pose, rotation)
-            {
+            if footprint.hits(&self.scenario.map, self.car.pose, rotation) {
                 self.reset();
                 return TickResult {
                     reset: Some(ResetReason::Collision),
@@ -405,7 +403,8 @@ fn observe_within(
     // Every cell within `clearance − 1` cells of the car's is free, and a ray leaves that square
     // only after at least `clearance − 1` cells of travel: a beam whose cut is shorter by a cell
     // more reads what its cast would give, SCAN_MAX_RANGE, without the cast.
-    let free = (f64::from(map.clearance_cells(pose.x, pose.y)) - 2.0) * map.resolution();
+    let view = map.viewpoint(pose.x, pose.y);
+    let free = (f64::from(view.clearance_cells()) - 2.0) * map.resolution();
     for (j, (&(bc, bs), &cut)) in BEAM_DIRECTIONS.iter().zip(cut).enumerate() {
         if cut <= free {
             scan.ranges[j] = SCAN_MAX_RANGE;
@@ -413,13 +412,11 @@ fn observe_within(
         }
         let along = (cos * bc - sin * bs, sin * bc + cos * bs);
         // Free a cell beyond the cut: the cast would reach the cut (no cast needed).
-        if cut < SCAN_MAX_RANGE as f64
-            && map.free_by_its_ends(pose.x, pose.y, along, cut + map.resolution())
-        {
+        if cut < SCAN_MAX_RANGE as f64 && map.free_from(&view, along, cut + map.resolution()) {
             scan.ranges[j] = SCAN_MAX_RANGE;
             continue;
         }
-        let r = map.raycast_along(pose.x, pose.y, along, cut);
+        let r = map.raycast_from(&view, along, cut);
         scan.ranges[j] = if r >= cut {
             SCAN_MAX_RANGE
         } else {

@@ -126,6 +126,22 @@ fn axis_start(g: f64, cell: i64, d: f64) -> (i64, f64, f64) {
     (step, delta, first)
 }
 
+/// A world point in a grid's coordinates, with its cell's clearance
+/// ([`OccupancyGrid::viewpoint`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Viewpoint {
+    gx: f64,
+    gy: f64,
+    clearance: u16,
+}
+
+impl Viewpoint {
+    /// [`OccupancyGrid::clearance_cells`] of the point.
+    pub fn clearance_cells(&self) -> u16 {
+        self.clearance
+    }
+}
+
 /// A loaded occupancy grid. Row 0 is the **bottom** row (lowest `y`), as in
 /// `nav_msgs/OccupancyGrid`.
 #[derive(Clone, Debug)]
@@ -471,20 +487,43 @@ impl OccupancyGrid {
     /// `(c_start − 1) + (c_end − 1)` (with a 10⁻⁶ cell margin for rounding). A cast along a
     /// segment this says is free, of at most `length − resolution`, reaches its end: the first
     /// blocked cell is entered at least `length` away.
-    pub fn free_by_its_ends(&self, x: f64, y: f64, (dx, dy): (f64, f64), length: f64) -> bool {
+    pub fn free_by_its_ends(&self, x: f64, y: f64, along: (f64, f64), length: f64) -> bool {
+        self.free_from(&self.viewpoint(x, y), along, length)
+    }
+
+    /// The world point `(x, y)` as rays start from it: its grid coordinates and its cell's
+    /// clearance, computed once for all the rays of a scan.
+    #[inline]
+    pub fn viewpoint(&self, x: f64, y: f64) -> Viewpoint {
         let (gx, gy) = self.to_grid(x, y);
+        let clearance = self
+            .padded(floor_to_int(gx), floor_to_int(gy))
+            .map_or(0, |i| self.clearance[i]);
+        Viewpoint { gx, gy, clearance }
+    }
+
+    /// [`OccupancyGrid::raycast_along`] from `view` (the same distance, bit for bit).
+    #[inline]
+    pub fn raycast_from(&self, view: &Viewpoint, (dx, dy): (f64, f64), max_range: f64) -> f64 {
         let gdx = dx * self.cos_yaw + dy * self.sin_yaw;
         let gdy = -dx * self.sin_yaw + dy * self.cos_yaw;
-        let cells = length / self.resolution;
-        let clearance = |gx: f64, gy: f64| {
-            self.padded(floor_to_int(gx), floor_to_int(gy))
-                .map_or(0.0, |i| f64::from(self.clearance[i]))
-        };
-        let start = clearance(gx, gy);
+        self.cast(view.gx, view.gy, gdx, gdy, max_range)
+    }
+
+    /// [`OccupancyGrid::free_by_its_ends`] from `view`.
+    #[inline]
+    pub fn free_from(&self, view: &Viewpoint, (dx, dy): (f64, f64), length: f64) -> bool {
+        let start = f64::from(view.clearance);
         if start < 2.0 {
             return false;
         }
-        let end = clearance(gx + gdx * cells, gy + gdy * cells);
+        let gdx = dx * self.cos_yaw + dy * self.sin_yaw;
+        let gdy = -dx * self.sin_yaw + dy * self.cos_yaw;
+        let cells = length / self.resolution;
+        let (ex, ey) = (view.gx + gdx * cells, view.gy + gdy * cells);
+        let end = self
+            .padded(floor_to_int(ex), floor_to_int(ey))
+            .map_or(0.0, |i| f64::from(self.clearance[i]));
         cells * gdx.abs().max(gdy.abs()) + 1.0e-6 < (start - 1.0) + (end - 1.0)
     }
 }
