@@ -5,7 +5,11 @@
 //!
 //! * **Range scan**: 64 beams cast from the rear axle at the firmware's bearings
 //!   ([`beam_bearing`]) through the occupancy grid (DDA, unknown cells block), at most
-//!   [`SCAN_MAX_RANGE`] = 10 m.
+//!   [`SCAN_MAX_RANGE`] = 10 m. A run whose learner is in this process takes
+//!   [`Episode::observe_near`] instead: each beam cast only to its [`scan_cut`] (0.34 m sideways
+//!   to 1.71 m ahead), beyond which no evaluation can see a scan point; the evaluation is the
+//!   same, bit for bit, and most beams need no cast at all (the clearance around the car, or at
+//!   both ends of the beam, shows them free).
 //! * **Semantic detections**: every object whose nearest point is within [`SENSOR_RANGE`] (5 m)
 //!   and in line of sight (the segment from the sensor to that point crosses no blocked cell
 //!   before its last [`LOS_SLACK_CELLS`] cells, so objects drawn as obstacles, a stairwell's
