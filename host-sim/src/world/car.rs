@@ -166,11 +166,15 @@ impl CarParams {
         // rounding). If all cells that near are free, no sample can hit: the same answer as the
         // loop over the samples, without it.
         let reach = libm::sqrt(self.length * self.length + self.width * self.width) / 2.0;
+        // The same for each quarter of the rectangle (halves of the samples along each side),
+        // around its own centre: half the diagonal.
+        let quarter = reach / 2.0;
         Footprint {
             car: *self,
             nx: libm::ceil(self.length / step) as usize,
             ny: libm::ceil(self.width / step) as usize,
             near: (reach / map.resolution()).floor() + 2.0,
+            near_quarter: (quarter / map.resolution()).floor() + 2.0,
         }
     }
 }
@@ -185,24 +189,45 @@ pub struct Footprint {
     ny: usize,
     /// A centre with a clearance above this many cells is clear.
     near: f64,
+    /// The same for a quarter's centre and its samples.
+    near_quarter: f64,
 }
 
 impl Footprint {
     /// [`CarParams::footprint_hits_turned`] on a map of the resolution this was made for.
     pub fn hits(&self, map: &OccupancyGrid, pose: Pose, rotation: UnitComplex<f64>) -> bool {
-        let Self { car, nx, ny, near } = *self;
+        let Self {
+            car,
+            nx,
+            ny,
+            near,
+            near_quarter,
+        } = *self;
         let iso = pose.isometry_turned(rotation);
         let centre = iso * Point2::new(car.center_offset, 0.0);
         if (map.clearance_cells(centre.x, centre.y) as f64) > near {
             return false;
         }
-        for i in 0..=nx {
-            let u = -car.length / 2.0 + car.length * i as f64 / nx as f64;
-            for j in 0..=ny {
-                let v = -car.width / 2.0 + car.width * j as f64 / ny as f64;
-                let p = centre + iso.rotation * Vector2::new(u, v);
-                if map.is_blocked(p.x, p.y) {
-                    return true;
+        let u = |i: usize| -car.length / 2.0 + car.length * i as f64 / nx as f64;
+        let v = |j: usize| -car.width / 2.0 + car.width * j as f64 / ny as f64;
+        // Near a wall: the samples by quarters (indices `0..=n/2` and `n/2 + 1..=n` along each
+        // side), each skipped when its own centre's clearance shows it clear, as above (its
+        // samples lie within half its diagonal of that centre, at most a quarter's).
+        let halves = |n: usize| [(0, n / 2), (n / 2 + 1, n)];
+        for (i0, i1) in halves(nx) {
+            for (j0, j1) in halves(ny) {
+                let middle = Vector2::new((u(i0) + u(i1)) / 2.0, (v(j0) + v(j1)) / 2.0);
+                let m = centre + iso.rotation * middle;
+                if (map.clearance_cells(m.x, m.y) as f64) > near_quarter {
+                    continue;
+                }
+                for i in i0..=i1 {
+                    for j in j0..=j1 {
+                        let p = centre + iso.rotation * Vector2::new(u(i), v(j));
+                        if map.is_blocked(p.x, p.y) {
+                            return true;
+                        }
+                    }
                 }
             }
         }
