@@ -315,9 +315,14 @@ impl Evaluator {
             near_d2,
             clearance,
         } = self;
-        // Beams within reach of some sample, binned by range (bin b holding [b·w, (b+1)·w)), then
-        // accumulated: `shorter[b]` holds the bins below b. Longer beams are never looked at.
-        let mut bins = [[0u32; 2]; RANGE_BINS];
+        // Beams within reach of some sample, binned by range (bin b holding [b·w, (b+1)·w)) into
+        // `shorter[b + 1]`, then accumulated in place: `shorter[b]` holds the bins below b.
+        // Longer beams are never looked at. (In place rather than in a local array of bins:
+        // 504 bytes less on the stack of the evaluation.)
+        let (head, bins) = shorter.split_at_mut(1);
+        let bins = &mut bins[..RANGE_BINS];
+        head[0] = [0; 2];
+        bins.fill([0; 2]);
         let mut any = false;
         for (j, (&r, &reach)) in ranges.iter().zip(BEAM_REACH.iter()).enumerate() {
             if r < reach {
@@ -334,10 +339,9 @@ impl Evaluator {
             return Obstacles::Clear;
         }
         let mut acc = [0u32; 2];
-        shorter[0] = acc;
-        for (b, bin) in bins.iter().enumerate() {
+        for bin in bins.iter_mut() {
             acc = [acc[0] | bin[0], acc[1] | bin[1]];
-            shorter[b + 1] = acc;
+            *bin = acc;
         }
         // Beams shorter than the clip plus the largest spread, and some more (whole bins):
         // candidates for the clusters near the sensor whatever their bearing (their windows
