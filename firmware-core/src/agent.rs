@@ -99,8 +99,9 @@ impl TickRecord {
     };
 }
 
-/// Learner and recent ticks: everything the car keeps between ticks. About 6.3 KiB (the
-/// evaluator's scratch lives on the stack of [`Agent::act`] only).
+/// Learner and recent ticks: everything the car keeps between ticks, 6 392 bytes (the
+/// evaluator's 3 840 bytes of scratch live on the stack of [`Agent::act`], during the
+/// evaluation only).
 ///
 /// [`Agent::new`] is a `const fn`, so firmware can place an agent in a `static` (for example a
 /// `static_cell::ConstStaticCell`) without building it on the stack first.
