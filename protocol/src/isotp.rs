@@ -22,7 +22,9 @@
 //! * **No flow control.** ISO-TP's receiver answers a first frame with a flow-control frame
 //!   (`0x3…`: continue, wait, overflow; block size; separation time). Here the sender sends all
 //!   frames back to back and the receiver never answers: every receiver keeps a fixed buffer per
-//!   stream sized for the largest message of the protocol ([`MAX_MESSAGE_SIZE`]), so there is
+//!   stream sized for the largest message of the stream (an [`Inbox`](crate::link::Inbox): by
+//!   [`STREAM_BUFFERS`](crate::link::STREAM_BUFFERS)) or of the protocol (a [`Reassembler`]:
+//!   [`MAX_MESSAGE_SIZE`]), so there is
 //!   nothing to negotiate, and each stream has one sender. A frame with a flow-control PCI is an
 //!   error ([`ReassemblyError::InvalidPci`]). This halves the latency of a multi-frame message
 //!   and needs no reverse identifier per stream.
