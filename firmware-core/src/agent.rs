@@ -1,10 +1,13 @@
 //! The car's side of a control tick: observe, act, and learn from feedback about a recent tick.
 //!
-//! An [`Agent`] owns the [`Evaluator`], the [`Learner`] and the features and path reference of
-//! the last [`TICK_HISTORY`] ticks, so that feedback arriving after the next observation (a slow link, a
+//! An [`Agent`] owns the [`Learner`] and the features and path reference of the last
+//! [`TICK_HISTORY`] ticks, so that feedback arriving after the next observation (a slow link, a
 //! retransmission) is still judged against the tick it refers to.
 //!
-//! [`Agent::act`] checks the observation once and evaluates the checked one; in a process where
+//! [`Agent::act`] checks the observation once and evaluates the checked one with an
+//! [`Evaluator`] of its own on the stack: its 3.75 KiB of scratch are needed only while it
+//! evaluates, so they take no room between ticks (on the car, the stack that decoding the next
+//! message uses). In a process where
 //! someone else evaluated the same observation already (the host's teacher),
 //! [`Agent::act_evaluated`] takes that [`Evaluation`] instead.
 //!
@@ -25,7 +28,7 @@ use core::fmt;
 
 use crate::action::{ActionIndex, ActionMask};
 use crate::error::LearnError;
-use crate::evaluator::{Evaluation, Evaluator};
+use crate::evaluator::{self, Evaluation, Evaluator};
 use crate::feature::FeatureTable;
 use crate::feedback::{Feedback, Round, SpanFeedback};
 use crate::learner::{Learner, OnlineLearner, Outcome};
@@ -96,13 +99,14 @@ impl TickRecord {
     };
 }
 
-/// Evaluator, learner and recent ticks: everything the car runs. About 10 KiB.
+/// Learner and recent ticks: everything the car keeps between ticks, 6 392 bytes (the
+/// evaluator's 3 840 bytes of scratch live on the stack of [`Agent::act`], during the
+/// evaluation only).
 ///
 /// [`Agent::new`] is a `const fn`, so firmware can place an agent in a `static` (for example a
 /// `static_cell::ConstStaticCell`) without building it on the stack first.
 #[derive(Clone, Debug)]
 pub struct Agent {
-    evaluator: Evaluator,
     learner: Learner,
     history: [TickRecord; TICK_HISTORY],
     next: usize,
@@ -112,7 +116,6 @@ impl Agent {
     /// An agent with `learner`, no history.
     pub const fn new(learner: Learner) -> Self {
         Self {
-            evaluator: Evaluator::new(),
             learner,
             history: [TickRecord::EMPTY; TICK_HISTORY],
             next: 0,
@@ -120,7 +123,7 @@ impl Agent {
     }
 
     /// An agent whose every byte is zero, so that a `static` holding it lands in `.bss` and
-    /// costs no flash (a `const` agent with any other learner is a 10 KiB initial value in
+    /// costs no flash (a `const` agent with any other learner is a 6 KiB initial value in
     /// `.data`, copied from flash at start). Its learner is a placeholder that never moves (step
     /// 0; not valid parameters): give it its learner with [`Agent::set_learner`] before it acts.
     pub const BLANK: Self = Self::new(Learner::PLACEHOLDER);
@@ -144,11 +147,14 @@ impl Agent {
     }
 
     /// [`Agent::act`] on an observation already checked.
+    ///
+    /// The evaluator (its scratch, 3 840 bytes) is a local of this call: nothing it holds
+    /// outlives the evaluation, and a fresh one gives the same bits as a reused one.
     pub fn act_checked(&mut self, tick: u32, obs: ValidObservation<'_>) -> Decision {
         let slot = self.slot_for(tick);
-        let allowed = self
-            .evaluator
-            .evaluate(obs, &mut self.history[slot].features);
+        let features = &mut self.history[slot].features;
+        let allowed = clearances(obs, features);
+        let allowed = evaluator::path_features(obs, allowed, features);
         self.decide(tick, slot, allowed, obs.reference)
     }
 
@@ -286,6 +292,16 @@ impl Agent {
         }
         self.next = 0;
     }
+}
+
+/// The collisions and clearances of `obs` into `out` (what [`Evaluator::evaluate`] does before
+/// the path features), with a fresh [`Evaluator`] whose scratch lives in this call's frame
+/// alone. Never inlined: inlined into its callers (on the car, into the node's handling of a
+/// message), the scratch would sit in their frame during everything else they call too (the
+/// answer's MAC, a feedback's learning step), not only during the evaluation.
+#[inline(never)]
+fn clearances(obs: ValidObservation<'_>, out: &mut FeatureTable) -> u64 {
+    Evaluator::new().clearances(obs, out)
 }
 
 /// Learns from `feedback` about the tick `record` holds.

@@ -176,9 +176,11 @@ impl Evaluation {
     }
 }
 
-/// The evaluator and its scratch memory (3 840 bytes), reused from tick to tick.
-///
-/// Keep one per agent, in a `static` on the car, so the linker accounts for it.
+/// The evaluator's scratch memory (3 840 bytes). Nothing in it outlives an evaluation: a fresh
+/// evaluator gives the same bits as one reused from tick to tick. The
+/// [`Agent`](crate::agent::Agent) makes a fresh one on its stack for each evaluation, so the
+/// scratch takes no room between ticks (on the car, the room that decoding a message uses);
+/// a host evaluating many observations may keep one.
 #[derive(Clone, Debug)]
 pub struct Evaluator {
     /// Scan points in the car frame (of the beams within reach; the others are stale).
@@ -254,6 +256,16 @@ impl Evaluator {
     ///
     /// The observation was validated once, by [`Observation::check`].
     pub fn evaluate(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> ActionMask {
+        let allowed = self.clearances(obs, out);
+        path_features(obs, allowed, out)
+    }
+
+    /// The part of [`Evaluator::evaluate`] that needs the scratch: the collisions and the
+    /// clearance features of the trajectories that do not collide (the rows of the others
+    /// zeroed), one bit per action that does not collide. [`path_features`] completes the
+    /// rows: apart, so that a caller with a fresh evaluator on its stack (the agent) holds the
+    /// scratch only here, not during the path's `sincosf` too (768 bytes of frame on the car).
+    pub(crate) fn clearances(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> u64 {
         let obstacles = self.obstacles(&obs.scan.ranges);
         let rows = out.rows_mut();
         let f = Feature::Obstacles.index();
@@ -275,9 +287,8 @@ impl Evaluator {
             for class in SemanticClass::ALL {
                 self.semantic(&obs, class, allowed, rows);
             }
-            path_and_side(&obs, allowed, rows);
         }
-        ActionMask::from_bits(allowed)
+        allowed
     }
 
     /// [`Evaluator::evaluate`] into an [`Evaluation`] of its own, which an
@@ -304,9 +315,14 @@ impl Evaluator {
             near_d2,
             clearance,
         } = self;
-        // Beams within reach of some sample, binned by range (bin b holding [b·w, (b+1)·w)), then
-        // accumulated: `shorter[b]` holds the bins below b. Longer beams are never looked at.
-        let mut bins = [[0u32; 2]; RANGE_BINS];
+        // Beams within reach of some sample, binned by range (bin b holding [b·w, (b+1)·w)) into
+        // `shorter[b + 1]`, then accumulated in place: `shorter[b]` holds the bins below b.
+        // Longer beams are never looked at. (In place rather than in a local array of bins:
+        // 504 bytes less on the stack of the evaluation.)
+        let (head, bins) = shorter.split_at_mut(1);
+        let bins = &mut bins[..RANGE_BINS];
+        head[0] = [0; 2];
+        bins.fill([0; 2]);
         let mut any = false;
         for (j, (&r, &reach)) in ranges.iter().zip(BEAM_REACH.iter()).enumerate() {
             if r < reach {
@@ -323,10 +339,9 @@ impl Evaluator {
             return Obstacles::Clear;
         }
         let mut acc = [0u32; 2];
-        shorter[0] = acc;
-        for (b, bin) in bins.iter().enumerate() {
+        for bin in bins.iter_mut() {
             acc = [acc[0] | bin[0], acc[1] | bin[1]];
-            shorter[b + 1] = acc;
+            *bin = acc;
         }
         // Beams shorter than the clip plus the largest spread, and some more (whole bins):
         // candidates for the clusters near the sensor whatever their bearing (their windows
@@ -805,6 +820,20 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
         *d = libm::fabsf(cross);
     }
     out
+}
+
+/// Completes what [`Evaluator::clearances`] wrote into `out` (the trajectories that do not
+/// collide, `allowed`): the path and side features of those trajectories. Returns the mask.
+#[inline]
+pub(crate) fn path_features(
+    obs: ValidObservation<'_>,
+    allowed: u64,
+    out: &mut FeatureTable,
+) -> ActionMask {
+    if allowed != 0 {
+        path_and_side(&obs, allowed, out.rows_mut());
+    }
+    ActionMask::from_bits(allowed)
 }
 
 /// Path error and lateral offset of every allowed trajectory's end: the end in the frame of the

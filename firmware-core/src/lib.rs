@@ -79,9 +79,10 @@
 //! ## Memory and time
 //!
 //! Nothing is allocated; everything lives in the caller's statics or stack. An [`agent::Agent`]
-//! is 10 232 bytes: the evaluator's scratch (3 840), the learner (under 100 B) and the feature
-//! tables of the last four ticks (1.5 KiB each). The lattice and the evaluator's precomputed
-//! tables are `static` data in flash.
+//! is 6 392 bytes: the learner (under 100 B) and the feature tables of the last four ticks
+//! (1.5 KiB each). Its evaluation takes a fresh evaluator's scratch (3 840 bytes) on the stack,
+//! for the evaluation only. The lattice and the evaluator's precomputed tables are `static` data
+//! in flash.
 //!
 //! On the car's Cortex-M4F one tick (evaluate + select) costs 9 K instructions in open space and
 //! 52 K on average over real simulator ticks (`scripts/measure-firmware`, `docs/firmware.md`);

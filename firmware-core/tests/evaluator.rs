@@ -3,12 +3,15 @@
 
 mod support;
 
+use firmware_core::agent::Agent;
 use firmware_core::evaluator::{Evaluator, FEATURE_ERROR_BOUND, beam_direction};
 use firmware_core::lattice::{Family, SCAN_BEAMS, mirror_action, trajectory};
 use firmware_core::observation::{
     MAX_OBJECTS, Observation, PathReference, SCAN_MAX_RANGE, SemanticClass, SemanticObject,
 };
-use firmware_core::{ActionIndex, ActionMask, FEATURE_COUNT, Feature, FeatureTable};
+use firmware_core::{
+    ActionIndex, ActionMask, FEATURE_COUNT, Feature, FeatureTable, Learner, LearnerParams,
+};
 use proptest::prelude::*;
 use support::naive;
 
@@ -123,6 +126,29 @@ proptest! {
             let mut expected = table[a];
             expected[Feature::Right.index()] = -expected[Feature::Right.index()];
             prop_assert_eq!(mirrored[m], expected, "action {} / mirror {}", a, m);
+        }
+    }
+
+    /// Nothing in the scratch outlives an evaluation: one evaluator reused over a sequence of
+    /// observations gives, bit for bit, what a fresh one gives for each (the agent makes a fresh
+    /// one on its stack for every act), and an agent acting on them remembers those features.
+    #[test]
+    fn a_reused_evaluator_equals_a_fresh_one(seq in proptest::collection::vec(observation(), 1..6)) {
+        let mut reused = Evaluator::new();
+        let mut agent = Agent::new(Learner::new(LearnerParams::default().check().unwrap()));
+        for (tick, obs) in seq.iter().enumerate() {
+            let mut table = FeatureTable::ZERO;
+            let mask = reused.evaluate(obs.check().unwrap(), &mut table);
+            let (fresh, fresh_mask) = evaluate(obs);
+            prop_assert_eq!(mask, fresh_mask);
+            for a in ActionIndex::all() {
+                prop_assert_eq!(table[a].map(f32::to_bits), fresh[a].map(f32::to_bits), "row of {}", a);
+            }
+            let evaluation = Evaluator::new().evaluation(obs.check().unwrap());
+            prop_assert_eq!(evaluation.table(), &table);
+            let mut taking = Agent::new(*agent.learner());
+            let decision = agent.act(tick as u32, obs).unwrap();
+            prop_assert_eq!(decision, taking.act_evaluated(tick as u32, &evaluation));
         }
     }
 

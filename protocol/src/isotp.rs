@@ -22,7 +22,9 @@
 //! * **No flow control.** ISO-TP's receiver answers a first frame with a flow-control frame
 //!   (`0x3…`: continue, wait, overflow; block size; separation time). Here the sender sends all
 //!   frames back to back and the receiver never answers: every receiver keeps a fixed buffer per
-//!   stream sized for the largest message of the protocol ([`MAX_MESSAGE_SIZE`]), so there is
+//!   stream sized for the largest message of the stream (an [`Inbox`](crate::link::Inbox): by
+//!   [`STREAM_BUFFERS`](crate::link::STREAM_BUFFERS)) or of the protocol (a [`Reassembler`]:
+//!   [`MAX_MESSAGE_SIZE`]), so there is
 //!   nothing to negotiate, and each stream has one sender. A frame with a flow-control PCI is an
 //!   error ([`ReassemblyError::InvalidPci`]). This halves the latency of a multi-frame message
 //!   and needs no reverse identifier per stream.
@@ -367,9 +369,7 @@ enum State {
 #[derive(Clone, Debug)]
 pub struct Reassembler<const N: usize = MAX_MESSAGE_SIZE> {
     buf: [u8; N],
-    state: State,
-    timeout_ms: u32,
-    abandoned: u32,
+    core: Reassembly,
 }
 
 impl<const N: usize> Default for Reassembler<N> {
@@ -395,6 +395,56 @@ impl<const N: usize> Reassembler<N> {
         };
         Self {
             buf: [0; N],
+            core: Reassembly::with_timeout(timeout_ms),
+        }
+    }
+
+    /// Sets the timeout between consecutive frames of a message (ms).
+    pub fn set_timeout(&mut self, timeout_ms: u32) {
+        self.core.set_timeout(timeout_ms);
+    }
+
+    /// Whether a message is in progress.
+    pub fn is_receiving(&self) -> bool {
+        self.core.is_receiving()
+    }
+
+    /// Number of messages abandoned because a single or first frame arrived before they were
+    /// complete (ISO-TP's "unexpected PDU"), since the reassembler was made.
+    pub fn abandoned(&self) -> u32 {
+        self.core.abandoned
+    }
+
+    /// Drops the message in progress, if any.
+    pub fn reset(&mut self) {
+        self.core.reset();
+    }
+
+    /// Ends a message in progress whose next frame is overdue at `now` (ms).
+    pub fn poll(&mut self, now: u32) -> Option<ReassemblyError> {
+        self.core.poll(now)
+    }
+
+    /// Takes one frame of the stream, received at `now` (ms, wrapping).
+    pub fn feed(&mut self, frame: &CanFrame, now: u32) -> FeedResult<'_> {
+        self.core.feed(&mut self.buf, frame, now)
+    }
+}
+
+/// The state of one stream's reassembly, apart from its buffer: a [`Reassembler`] holds its
+/// own, an [`Inbox`](crate::link::Inbox) lends each stream its part of one buffer (sized per
+/// stream by the largest message the stream carries).
+#[derive(Clone, Debug)]
+pub(crate) struct Reassembly {
+    state: State,
+    timeout_ms: u32,
+    abandoned: u32,
+}
+
+impl Reassembly {
+    /// Idle, giving up on a message whose next frame is more than `timeout_ms` late.
+    pub(crate) const fn with_timeout(timeout_ms: u32) -> Self {
+        Self {
             state: State::Idle,
             timeout_ms,
             abandoned: 0,
@@ -402,28 +452,21 @@ impl<const N: usize> Reassembler<N> {
     }
 
     /// Sets the timeout between consecutive frames of a message (ms).
-    pub fn set_timeout(&mut self, timeout_ms: u32) {
+    pub(crate) fn set_timeout(&mut self, timeout_ms: u32) {
         self.timeout_ms = timeout_ms;
     }
 
-    /// Whether a message is in progress.
-    pub fn is_receiving(&self) -> bool {
+    fn is_receiving(&self) -> bool {
         matches!(self.state, State::Receiving { .. })
     }
 
-    /// Number of messages abandoned because a single or first frame arrived before they were
-    /// complete (ISO-TP's "unexpected PDU"), since the reassembler was made.
-    pub fn abandoned(&self) -> u32 {
-        self.abandoned
-    }
-
     /// Drops the message in progress, if any.
-    pub fn reset(&mut self) {
+    pub(crate) fn reset(&mut self) {
         self.state = State::Idle;
     }
 
     /// Ends a message in progress whose next frame is overdue at `now` (ms).
-    pub fn poll(&mut self, now: u32) -> Option<ReassemblyError> {
+    pub(crate) fn poll(&mut self, now: u32) -> Option<ReassemblyError> {
         match self.state {
             State::Receiving { last_ms, .. } if now.wrapping_sub(last_ms) > self.timeout_ms => {
                 self.state = State::Idle;
@@ -433,10 +476,17 @@ impl<const N: usize> Reassembler<N> {
         }
     }
 
-    /// Takes one frame of the stream, received at `now` (ms, wrapping).
-    pub fn feed(&mut self, frame: &CanFrame, now: u32) -> FeedResult<'_> {
-        match self.step(frame, now) {
-            Ok(Some(len)) => FeedResult::Complete(&self.buf[..len]),
+    /// Takes one frame of the stream, received at `now` (ms, wrapping), into `buf` (the same
+    /// buffer for every frame of the stream; a message longer than it is
+    /// [`ReassemblyError::TooLong`]).
+    pub(crate) fn feed<'b>(
+        &mut self,
+        buf: &'b mut [u8],
+        frame: &CanFrame,
+        now: u32,
+    ) -> FeedResult<'b> {
+        match self.step(buf, frame, now) {
+            Ok(Some(len)) => FeedResult::Complete(&buf[..len]),
             Ok(None) => FeedResult::Consumed,
             Err(e) => {
                 self.state = State::Idle;
@@ -446,7 +496,12 @@ impl<const N: usize> Reassembler<N> {
     }
 
     /// `Ok(Some(len))`: a message of `len` bytes is in the buffer.
-    fn step(&mut self, frame: &CanFrame, now: u32) -> Result<Option<usize>, ReassemblyError> {
+    fn step(
+        &mut self,
+        buf: &mut [u8],
+        frame: &CanFrame,
+        now: u32,
+    ) -> Result<Option<usize>, ReassemblyError> {
         let data = frame.data();
         let mode = FrameMode::of(frame);
         let Some(&pci) = data.first() else {
@@ -465,10 +520,10 @@ impl<const N: usize> Reassembler<N> {
                 if len == 0 || len > body.len() {
                     return Err(ReassemblyError::InvalidFrame);
                 }
-                if len > N {
+                let Some(to) = buf.get_mut(..len) else {
                     return Err(ReassemblyError::TooLong(len as u16));
-                }
-                self.buf[..len].copy_from_slice(&body[..len]);
+                };
+                to.copy_from_slice(&body[..len]);
                 Ok(Some(len))
             }
             PCI_FF => {
@@ -480,11 +535,11 @@ impl<const N: usize> Reassembler<N> {
                 if len <= mode.single_frame_capacity() {
                     return Err(ReassemblyError::InvalidFrame);
                 }
-                if len > N {
+                if len > buf.len() {
                     return Err(ReassemblyError::TooLong(len as u16));
                 }
                 let body = &data[2..];
-                self.buf[..body.len()].copy_from_slice(body);
+                buf[..body.len()].copy_from_slice(body);
                 self.state = State::Receiving {
                     len,
                     filled: body.len(),
@@ -522,7 +577,7 @@ impl<const N: usize> Reassembler<N> {
                     return Err(ReassemblyError::InvalidFrame);
                 }
                 let take = body.len().min(rest);
-                self.buf[filled..filled + take].copy_from_slice(&body[..take]);
+                buf[filled..filled + take].copy_from_slice(&body[..take]);
                 if filled + take == len {
                     self.state = State::Idle;
                     Ok(Some(len))

@@ -3,8 +3,9 @@
 //!
 //! [`transmit`] picks a message's stream from the [id plan](crate::stream), seals it with the
 //! sender's [`Endpoint`] (a secured PDU, [`crate::secure`]) and sends its frames. An [`Inbox`]
-//! holds one [`Reassembler`] per stream of the direction it receives, so messages on different
-//! identifiers may interleave; it ignores frames that are not for it (other identifiers share
+//! reassembles each stream of the direction it receives apart (as a
+//! [`Reassembler`](crate::isotp::Reassembler) does, in a buffer sized by the largest message of
+//! the stream), so messages on different identifiers may interleave; it ignores frames that are not for it (other identifiers share
 //! the bus), hands every completed PDU to the receiver's [`Endpoint`] and checks that every
 //! message came on its own stream.
 //!
@@ -41,7 +42,9 @@
 use core::fmt;
 
 use crate::can::{CanBus, CanFrame};
-use crate::isotp::{FeedResult, FrameMode, Reassembler, ReassemblyError, SegmentError, Segmenter};
+use crate::isotp::{
+    DEFAULT_TIMEOUT_MS, FeedResult, FrameMode, Reassembly, ReassemblyError, SegmentError, Segmenter,
+};
 use crate::message::{DecodeError, ErrorCode, MAX_MESSAGE_SIZE, Message, MessageKind};
 pub use crate::secure::Endpoint;
 use crate::secure::{OpenError, Refusal, SealError};
@@ -188,28 +191,61 @@ pub enum Received {
     Error(LinkError),
 }
 
-/// The receiving side of one node: a reassembler per stream of one direction.
+/// The largest secured message each class's stream carries, either way (what its reassembly
+/// buffer holds): a longer one is no message of the protocol.
+pub const STREAM_BUFFERS: [usize; CLASS_COUNT] = {
+    let mut sizes = [0; CLASS_COUNT];
+    let mut k = 0;
+    while k < MessageKind::ALL.len() {
+        let kind = MessageKind::ALL[k];
+        let class = Class::of(kind) as usize;
+        if kind.max_encoded_size() > sizes[class] {
+            sizes[class] = kind.max_encoded_size();
+        }
+        k += 1;
+    }
+    sizes
+};
+
+/// Where each stream's buffer starts in an inbox's one buffer, and (last) its length.
+const BUFFER_STARTS: [usize; CLASS_COUNT + 1] = {
+    let mut starts = [0; CLASS_COUNT + 1];
+    let mut i = 0;
+    while i < CLASS_COUNT {
+        starts[i + 1] = starts[i] + STREAM_BUFFERS[i];
+        i += 1;
+    }
+    starts
+};
+
+const _: () = assert!(
+    STREAM_BUFFERS[Class::Observation as usize] == MAX_MESSAGE_SIZE,
+    "the observation's stream holds the largest message"
+);
+
+/// The receiving side of one node: a reassembly per stream of one direction, each in its part
+/// of one buffer, sized by the largest message of its stream ([`STREAM_BUFFERS`]: 367 bytes for
+/// the six, where six buffers of [`MAX_MESSAGE_SIZE`] would be 942).
 #[derive(Clone, Debug)]
 pub struct Inbox {
     direction: Direction,
-    streams: [Reassembler; CLASS_COUNT],
+    streams: [Reassembly; CLASS_COUNT],
+    buffers: [u8; BUFFER_STARTS[CLASS_COUNT]],
 }
 
 impl Inbox {
     /// An inbox for the messages travelling in `direction` (the car's inbox takes
     /// [`Direction::HostToCar`]).
     pub const fn new(direction: Direction) -> Self {
-        Self {
-            direction,
-            streams: [const { Reassembler::new() }; CLASS_COUNT],
-        }
+        Self::with_timeout(direction, DEFAULT_TIMEOUT_MS)
     }
 
     /// An inbox whose reassemblers give up after `timeout_ms` between frames.
     pub const fn with_timeout(direction: Direction, timeout_ms: u32) -> Self {
         Self {
             direction,
-            streams: [const { Reassembler::new() }; CLASS_COUNT],
+            streams: [const { Reassembly::with_timeout(0) }; CLASS_COUNT],
+            buffers: [0; BUFFER_STARTS[CLASS_COUNT]],
         }
         .timeout(timeout_ms)
     }
@@ -217,7 +253,7 @@ impl Inbox {
     const fn timeout(mut self, timeout_ms: u32) -> Self {
         let mut i = 0;
         while i < CLASS_COUNT {
-            self.streams[i] = Reassembler::with_timeout(timeout_ms);
+            self.streams[i] = Reassembly::with_timeout(timeout_ms);
             i += 1;
         }
         self
@@ -248,7 +284,15 @@ impl Inbox {
         if stream.direction != self.direction {
             return Received::Nothing;
         }
-        match self.streams[stream.index()].feed(frame, now) {
+        let i = stream.index();
+        let (Some(reassembly), Some(buf)) = (
+            self.streams.get_mut(i),
+            self.buffers
+                .get_mut(BUFFER_STARTS[i % CLASS_COUNT]..BUFFER_STARTS[i % CLASS_COUNT + 1]),
+        ) else {
+            return Received::Nothing;
+        };
+        match reassembly.feed(buf, frame, now) {
             FeedResult::Consumed => Received::Nothing,
             FeedResult::Error(e) => Received::Error(LinkError::Reassembly(stream, e)),
             FeedResult::Complete(bytes) => match endpoint.open(stream, bytes) {
@@ -399,6 +443,54 @@ mod tests {
             ),
             Err(TransmitError::Seal(SealError::Unsynced))
         );
+    }
+
+    /// Each stream's buffer holds the largest message it carries (either way) and no more: a
+    /// PDU of that size is reassembled and handed to the endpoint (which refuses garbage), one
+    /// byte more is refused at its first frame, in both frame modes and both directions.
+    #[test]
+    fn each_stream_holds_its_largest_message_and_no_more() {
+        use crate::isotp::Segmenter;
+        assert_eq!(STREAM_BUFFERS, [34, 7, 157, 27, 14, 128]);
+        assert_eq!(BUFFER_STARTS[CLASS_COUNT], 367);
+        for (class, &size) in Class::ALL.iter().zip(STREAM_BUFFERS.iter()) {
+            let largest = MessageKind::ALL
+                .iter()
+                .filter(|&&k| Class::of(k) == *class)
+                .map(|k| k.max_encoded_size())
+                .max();
+            assert_eq!(largest, Some(size), "{class:?}");
+            for dir in [Direction::HostToCar, Direction::CarToHost] {
+                let id = Stream::new(*class, dir).id();
+                for mode in [FrameMode::Classic, FrameMode::Fd] {
+                    for (len, fits) in [(size, true), (size + 1, false)] {
+                        let (_, mut car) = ends();
+                        let mut inbox = Inbox::new(dir);
+                        let pdu: Vec<u8> = (0..len).map(|i| i as u8).collect();
+                        let mut last = Received::Nothing;
+                        for f in Segmenter::new(id, &pdu, mode).unwrap() {
+                            last = inbox.feed(&f, 0, &mut car);
+                            if last != Received::Nothing {
+                                break;
+                            }
+                        }
+                        let too_long = last
+                            == Received::Error(LinkError::Reassembly(
+                                Stream::new(*class, dir),
+                                ReassemblyError::TooLong(len as u16),
+                            ));
+                        assert_eq!(
+                            too_long, !fits,
+                            "{class:?} {dir:?} {mode:?} {len} bytes: {last:?}"
+                        );
+                        assert!(
+                            last != Received::Nothing,
+                            "{class:?} {dir:?} {mode:?} {len} bytes: complete or refused"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]
