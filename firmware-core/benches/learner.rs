@@ -102,7 +102,8 @@ fn bench_update(c: &mut Criterion) {
 }
 
 /// The round the car runs when a correction arrives for the tick it just acted in: select over
-/// 64 actions, then one update, with the default learner (averaged OGD); and in the same group,
+/// 64 actions, then one update, with the default learner (averaged OGD), the round carrying its
+/// path reference as the agent's do (a statement about the path needs it); and in the same group,
 /// the 64 × 6 dot products of the acting weights with the table that any round must do once.
 fn bench_round(c: &mut Criterion) {
     let t = table(3);
@@ -149,8 +150,10 @@ fn bench_round(c: &mut Criterion) {
                 |l| {
                     let table = black_box(&t);
                     let chosen = l.select(table, ActionMask::ALL).unwrap();
-                    let round = Round::new(table, ActionMask::ALL, chosen).unwrap();
-                    l.learn(&round, black_box(fb))
+                    let round = Round::new(table, ActionMask::ALL, chosen)
+                        .and_then(|r| r.with_reference(AHEAD))
+                        .unwrap();
+                    l.learn(&round, black_box(fb)).unwrap()
                 },
                 criterion::BatchSize::SmallInput,
             )
