@@ -176,6 +176,9 @@ impl<'a> Round<'a> {
 #[derive(Clone, PartialEq, Debug)]
 pub struct PseudoLoss {
     values: [f32; MAX_ACTIONS],
+    /// Bit `i` set when entry `i` is 0 (of either sign): the allowed actions holding the minimum,
+    /// and every forbidden one.
+    zeros: u64,
     absolute: bool,
 }
 
@@ -185,14 +188,21 @@ impl PseudoLoss {
         mut values: [f32; MAX_ACTIONS],
         allowed: ActionMask,
     ) -> Result<Self, LearnError> {
-        // One comparison per entry for the bound, false for NaN and both infinities; the minimum
-        // in index order (its sign of zero depends on the order), without branches.
+        // One comparison per entry for the bound, false for NaN and both infinities, and the
+        // minimum without branches, in eight running minima side by side rather than one chain of
+        // 64 dependent comparisons. Every entry equal to the minimum has its bits but for the sign
+        // of a zero, which the first allowed zero in index order gives, as one running minimum
+        // would (`v < min` keeps the first of equals).
         let bits = allowed.bits();
-        let (mut good, mut min) = (true, f32::INFINITY);
+        let mut good = true;
+        let mut lanes = [f32::INFINITY; 8];
+        let mut allowed_zeros = 0u64;
         for (i, &v) in values.iter().enumerate() {
             let here = bits >> i & 1 == 1;
             good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
-            min = if here && v < min { v } else { min };
+            let m = &mut lanes[i % 8];
+            *m = if here && v < *m { v } else { *m };
+            allowed_zeros |= ((here & (v == 0.0)) as u64) << i;
         }
         if !good {
             return Err(LearnError::BadPseudoLoss);
@@ -200,11 +210,23 @@ impl PseudoLoss {
         if allowed.is_empty() {
             return Err(LearnError::NoAllowedAction);
         }
+        let mut min = f32::INFINITY;
+        for m in lanes {
+            min = if m < min { m } else { min };
+        }
+        if min == 0.0 {
+            min = values[allowed_zeros.trailing_zeros() as usize];
+        }
+        // `v − min` is 0 exactly when `v == min` (finite values: no underflow to 0 on the way).
+        let mut zeros = 0u64;
         for (i, v) in values.iter_mut().enumerate() {
-            *v = if bits >> i & 1 == 1 { *v - min } else { 0.0 };
+            let here = bits >> i & 1 == 1;
+            zeros |= ((!here | (*v == min)) as u64) << i;
+            *v = if here { *v - min } else { 0.0 };
         }
         Ok(Self {
             values,
+            zeros,
             absolute: false,
         })
     }
@@ -226,6 +248,13 @@ impl PseudoLoss {
     #[inline]
     pub fn values(&self) -> &[f32; MAX_ACTIONS] {
         &self.values
+    }
+
+    /// The entries that are 0, as the bits of an [`ActionMask`]: within the round's allowed
+    /// actions, the ones `Δ` points to (`argmin Δ`).
+    #[inline]
+    pub fn zeros(&self) -> u64 {
+        self.zeros
     }
 }
 
@@ -325,6 +354,7 @@ impl PseudoLossSource for ActionFeedback {
         values[self.action.get()] = 0.0;
         Ok(PseudoLoss {
             values,
+            zeros: !bits | 1 << self.action.get(),
             absolute: true,
         })
     }
@@ -495,27 +525,47 @@ impl PseudoLossSource for SemanticFeedback {
             )),
             None => None,
         };
-        let chosen = round.chosen();
-        for a in round.allowed() {
-            out[a.get()] = 0.0;
-        }
+        // How many statements each action fails, then `Δ` = that many `SEMANTIC_LOSS`: the same
+        // bits as adding them one by one (100, 200, … 600 are exact).
+        let mut fails = [0u8; MAX_ACTIONS];
         for s in self.statements() {
-            let f = s.subject.index();
-            let quantity = |a: ActionIndex| match (&cross, s.subject) {
-                (Some(cross), Feature::Path) => cross[a.get()],
-                _ => round.phi(a)[f],
-            };
-            let reference = quantity(chosen);
             let higher = s.wants_higher();
-            for a in round.allowed() {
-                let v = quantity(a);
-                let better = if higher { v > reference } else { v < reference };
-                if !better {
-                    out[a.get()] += SEMANTIC_LOSS;
+            match (&cross, s.subject) {
+                (Some(cross), Feature::Path) => {
+                    count_fails(round, higher, &mut fails, |a| cross[a.get()])
+                }
+                (_, subject) => {
+                    let f = subject.index();
+                    count_fails(round, higher, &mut fails, |a| round.phi(a)[f])
                 }
             }
         }
+        for a in round.allowed() {
+            out[a.get()] = fails[a.get()] as f32 * SEMANTIC_LOSS;
+        }
         Ok(())
+    }
+}
+
+/// Adds 1 to the count of every allowed action that does not do strictly better than the
+/// learner's choice on `quantity` (higher or lower, as the statement wants).
+#[inline(always)]
+fn count_fails(
+    round: &Round<'_>,
+    higher: bool,
+    fails: &mut [u8; MAX_ACTIONS],
+    quantity: impl Fn(ActionIndex) -> f32,
+) {
+    let reference = quantity(round.chosen());
+    for a in round.allowed() {
+        let v = quantity(a);
+        // `v > reference` or `v < reference`, without a branch.
+        let (x, y) = if higher {
+            (v, reference)
+        } else {
+            (reference, v)
+        };
+        fails[a.get()] += !(x > y) as u8;
     }
 }
 
