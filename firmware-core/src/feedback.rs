@@ -189,20 +189,27 @@ impl PseudoLoss {
         allowed: ActionMask,
     ) -> Result<Self, LearnError> {
         // One comparison per entry for the bound, false for NaN and both infinities, and the
-        // minimum without branches, in eight running minima side by side rather than one chain of
-        // 64 dependent comparisons. Every entry equal to the minimum has its bits but for the sign
-        // of a zero, which the first allowed zero in index order gives, as one running minimum
-        // would (`v < min` keeps the first of equals).
+        // minimum without branches, in eight running minima side by side (eight actions at a
+        // time) rather than one chain of 64 dependent comparisons. Every entry equal to the
+        // minimum has its bits but for the sign of a zero, which the first allowed zero in index
+        // order gives, as one running minimum would (`v < min` keeps the first of equals).
         let bits = allowed.bits();
         let mut good = true;
         let mut lanes = [f32::INFINITY; 8];
         let mut allowed_zeros = 0u64;
-        for (i, &v) in values.iter().enumerate() {
-            let here = bits >> i & 1 == 1;
-            good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
-            let m = &mut lanes[i % 8];
-            *m = if here && v < *m { v } else { *m };
-            allowed_zeros |= ((here & (v == 0.0)) as u64) << i;
+        const _: () = assert!(MAX_ACTIONS % 8 == 0);
+        for (k, chunk) in values.as_chunks::<8>().0.iter().enumerate() {
+            let byte = (bits >> (8 * k)) as u8;
+            let mut zeros = 0u8;
+            for j in 0..8 {
+                let here = byte >> j & 1 == 1;
+                let v = chunk[j];
+                good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
+                let v = if here { v } else { f32::INFINITY };
+                lanes[j] = if v < lanes[j] { v } else { lanes[j] };
+                zeros |= ((v == 0.0) as u8) << j;
+            }
+            allowed_zeros |= (zeros as u64) << (8 * k);
         }
         if !good {
             return Err(LearnError::BadPseudoLoss);
@@ -219,10 +226,15 @@ impl PseudoLoss {
         }
         // `v − min` is 0 exactly when `v == min` (finite values: no underflow to 0 on the way).
         let mut zeros = 0u64;
-        for (i, v) in values.iter_mut().enumerate() {
-            let here = bits >> i & 1 == 1;
-            zeros |= ((!here | (*v == min)) as u64) << i;
-            *v = if here { *v - min } else { 0.0 };
+        for (k, chunk) in values.as_chunks_mut::<8>().0.iter_mut().enumerate() {
+            let byte = (bits >> (8 * k)) as u8;
+            let mut z = 0u8;
+            for (j, v) in chunk.iter_mut().enumerate() {
+                let here = byte >> j & 1 == 1;
+                z |= ((!here | (*v == min)) as u8) << j;
+                *v = if here { *v - min } else { 0.0 };
+            }
+            zeros |= (z as u64) << (8 * k);
         }
         Ok(Self {
             values,
@@ -343,13 +355,9 @@ impl PseudoLossSource for ActionFeedback {
     fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
         round.require_allowed(self.action)?;
         let bits = round.allowed().bits();
-        let mut values = [0.0f32; MAX_ACTIONS];
-        for (i, v) in values.iter_mut().enumerate() {
-            *v = if bits >> i & 1 == 1 {
-                WRONG_ACTION_LOSS
-            } else {
-                0.0
-            };
+        let mut values = [WRONG_ACTION_LOSS; MAX_ACTIONS];
+        for a in ActionMask::from_bits(!bits) {
+            values[a.get()] = 0.0;
         }
         values[self.action.get()] = 0.0;
         Ok(PseudoLoss {

@@ -188,12 +188,14 @@ fn hinge_from(
     delta: &PseudoLoss,
     score: impl Fn(ActionIndex) -> f32,
 ) -> (ActionIndex, f32, ActionIndex) {
-    // The target's own term is Δ_â + 0 = 0: start there so that ties keep the zero subgradient.
+    // The target's own term is Δ_â + 0 = 0: start there so that ties keep the zero subgradient
+    // (the term of `â` in the loop, Δ_â + (s_â − s_â) = Δ_â, never exceeds the running value,
+    // which starts at Δ_â and only grows: no test of `a ≠ â`).
     let mut sel = hat;
     let mut value = delta[hat];
     for a in round.allowed() {
         let v = delta[a] + (score(a) - s_hat);
-        if v > value && a != hat {
+        if v > value {
             value = v;
             sel = a;
         }
