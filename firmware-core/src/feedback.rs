@@ -184,45 +184,50 @@ pub struct PseudoLoss {
 
 impl PseudoLoss {
     /// Checks raw values over the allowed actions and shifts them so that their minimum is 0.
-    pub fn from_raw(
+    pub fn from_raw(values: [f32; MAX_ACTIONS], allowed: ActionMask) -> Result<Self, LearnError> {
+        Self::from_raw_as(values, allowed, false)
+    }
+
+    /// [`PseudoLoss::from_raw`], then [`PseudoLoss::with_absolute`], built once (the 256 bytes
+    /// of the values not moved again).
+    pub(crate) fn from_raw_as(
         mut values: [f32; MAX_ACTIONS],
         allowed: ActionMask,
+        absolute: bool,
     ) -> Result<Self, LearnError> {
         // One comparison per entry for the bound, false for NaN and both infinities, and the
         // minimum without branches, in eight running minima side by side (eight actions at a
-        // time) rather than one chain of 64 dependent comparisons. Every entry equal to the
-        // minimum has its bits but for the sign of a zero, which the first allowed zero in index
-        // order gives, as one running minimum would (`v < min` keeps the first of equals).
+        // time, each bit of the mask tested at a constant position) rather than one chain of 64
+        // dependent comparisons. Every entry equal to the minimum has its bits but for the sign
+        // of a zero, which the first allowed zero in index order gives, as one running minimum
+        // would (`v < min` keeps the first of equals).
         let bits = allowed.bits();
         let mut good = true;
         let mut lanes = [f32::INFINITY; 8];
-        let mut allowed_zeros = 0u64;
         const _: () = assert!(MAX_ACTIONS % 8 == 0);
         for (k, chunk) in values.as_chunks::<8>().0.iter().enumerate() {
             let byte = (bits >> (8 * k)) as u8;
-            let mut zeros = 0u8;
             for j in 0..8 {
                 let here = byte >> j & 1 == 1;
                 let v = chunk[j];
                 good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
-                let v = if here { v } else { f32::INFINITY };
-                lanes[j] = if v < lanes[j] { v } else { lanes[j] };
-                zeros |= ((v == 0.0) as u8) << j;
+                lanes[j] = if here && v < lanes[j] { v } else { lanes[j] };
             }
-            allowed_zeros |= (zeros as u64) << (8 * k);
         }
         if !good {
             return Err(LearnError::BadPseudoLoss);
-        }
-        if allowed.is_empty() {
-            return Err(LearnError::NoAllowedAction);
         }
         let mut min = f32::INFINITY;
         for m in lanes {
             min = if m < min { m } else { min };
         }
-        if min == 0.0 {
-            min = values[allowed_zeros.trailing_zeros() as usize];
+        if min == 0.0
+            && let Some(a) = allowed.iter().find(|a| values[a.get()] == 0.0)
+        {
+            min = values[a.get()];
+        }
+        if allowed.is_empty() {
+            return Err(LearnError::NoAllowedAction);
         }
         // `v − min` is 0 exactly when `v == min` (finite values: no underflow to 0 on the way).
         let mut zeros = 0u64;
@@ -239,7 +244,7 @@ impl PseudoLoss {
         Ok(Self {
             values,
             zeros,
-            absolute: false,
+            absolute,
         })
     }
 
@@ -306,7 +311,7 @@ pub trait PseudoLossSource {
     fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
         let mut raw = [0.0f32; MAX_ACTIONS];
         self.write_pseudo_loss(round, &mut raw)?;
-        Ok(PseudoLoss::from_raw(raw, round.allowed())?.with_absolute(self.is_absolute()))
+        PseudoLoss::from_raw_as(raw, round.allowed(), self.is_absolute())
     }
 }
 
@@ -533,47 +538,43 @@ impl PseudoLossSource for SemanticFeedback {
             )),
             None => None,
         };
-        // How many statements each action fails, then `Δ` = that many `SEMANTIC_LOSS`: the same
-        // bits as adding them one by one (100, 200, … 600 are exact).
-        let mut fails = [0u8; MAX_ACTIONS];
+        for a in round.allowed() {
+            out[a.get()] = 0.0;
+        }
         for s in self.statements() {
             let higher = s.wants_higher();
             match (&cross, s.subject) {
-                (Some(cross), Feature::Path) => {
-                    count_fails(round, higher, &mut fails, |a| cross[a.get()])
-                }
+                (Some(cross), Feature::Path) => add_fails(round, higher, out, |a| cross[a.get()]),
                 (_, subject) => {
                     let f = subject.index();
-                    count_fails(round, higher, &mut fails, |a| round.phi(a)[f])
+                    add_fails(round, higher, out, |a| round.phi(a)[f])
                 }
             }
-        }
-        for a in round.allowed() {
-            out[a.get()] = fails[a.get()] as f32 * SEMANTIC_LOSS;
         }
         Ok(())
     }
 }
 
-/// Adds 1 to the count of every allowed action that does not do strictly better than the
-/// learner's choice on `quantity` (higher or lower, as the statement wants).
+/// Adds [`SEMANTIC_LOSS`] to `out` for every allowed action that does not do strictly better
+/// than the learner's choice on `quantity` (higher or lower, as the statement wants), and 0 to
+/// the others: without a branch, and the same bits (`x + 0 = x` for the `x ≥ 0` here).
 #[inline(always)]
-fn count_fails(
+fn add_fails(
     round: &Round<'_>,
     higher: bool,
-    fails: &mut [u8; MAX_ACTIONS],
+    out: &mut [f32; MAX_ACTIONS],
     quantity: impl Fn(ActionIndex) -> f32,
 ) {
     let reference = quantity(round.chosen());
     for a in round.allowed() {
         let v = quantity(a);
-        // `v > reference` or `v < reference`, without a branch.
+        // `v > reference` or `v < reference`.
         let (x, y) = if higher {
             (v, reference)
         } else {
             (reference, v)
         };
-        fails[a.get()] += !(x > y) as u8;
+        out[a.get()] += if x > y { 0.0 } else { SEMANTIC_LOSS };
     }
 }
 
@@ -739,7 +740,7 @@ impl PseudoLossSource for Feedback {
         }
         let mut raw = [0.0f32; MAX_ACTIONS];
         self.write_pseudo_loss(round, &mut raw)?;
-        Ok(PseudoLoss::from_raw(raw, round.allowed())?.with_absolute(self.is_absolute()))
+        PseudoLoss::from_raw_as(raw, round.allowed(), self.is_absolute())
     }
 }
 
