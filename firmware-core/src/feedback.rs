@@ -204,7 +204,7 @@ impl PseudoLoss {
         let bits = allowed.bits();
         let mut good = true;
         let mut lanes = [f32::INFINITY; 8];
-        const _: () = assert!(MAX_ACTIONS % 8 == 0);
+        const _: () = assert!(MAX_ACTIONS.is_multiple_of(8));
         for (k, chunk) in values.as_chunks::<8>().0.iter().enumerate() {
             let byte = (bits >> (8 * k)) as u8;
             for j in 0..8 {
