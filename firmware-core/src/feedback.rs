@@ -185,16 +185,37 @@ pub struct PseudoLoss {
 impl PseudoLoss {
     /// Checks raw values over the allowed actions and shifts them so that their minimum is 0.
     pub fn from_raw(values: [f32; MAX_ACTIONS], allowed: ActionMask) -> Result<Self, LearnError> {
-        Self::from_raw_as(values, allowed, false)
+        let mut delta = Self::raw(false);
+        delta.values = values;
+        delta.shift(allowed)?;
+        Ok(delta)
     }
 
-    /// [`PseudoLoss::from_raw`], then [`PseudoLoss::with_absolute`], built once (the 256 bytes
-    /// of the values not moved again).
-    pub(crate) fn from_raw_as(
-        mut values: [f32; MAX_ACTIONS],
-        allowed: ActionMask,
-        absolute: bool,
+    /// Zeros, to be written raw by a [`PseudoLossSource`] and then [`PseudoLoss::shift`]ed in
+    /// place (no second array of raw values on the stack).
+    fn raw(absolute: bool) -> Self {
+        Self {
+            values: [0.0; MAX_ACTIONS],
+            zeros: 0,
+            absolute,
+        }
+    }
+
+    /// [`PseudoLossSource::write_pseudo_loss`] of `source` into a fresh pseudo-loss, checked and
+    /// shifted in place.
+    fn written<S: PseudoLossSource + ?Sized>(
+        source: &S,
+        round: &Round<'_>,
     ) -> Result<Self, LearnError> {
+        let mut delta = Self::raw(source.is_absolute());
+        source.write_pseudo_loss(round, &mut delta.values)?;
+        delta.shift(round.allowed())?;
+        Ok(delta)
+    }
+
+    /// [`PseudoLoss::from_raw`]'s check and shift, in place; on `Err` the values are unchanged.
+    fn shift(&mut self, allowed: ActionMask) -> Result<(), LearnError> {
+        let values = &mut self.values;
         // One comparison per entry for the bound, false for NaN and both infinities, and the
         // minimum without branches, in eight running minima side by side (eight actions at a
         // time, each bit of the mask tested at a constant position) rather than one chain of 64
@@ -241,11 +262,8 @@ impl PseudoLoss {
             }
             zeros |= (z as u64) << (8 * k);
         }
-        Ok(Self {
-            values,
-            zeros,
-            absolute,
-        })
+        self.zeros = zeros;
+        Ok(())
     }
 
     /// Marks the pseudo-loss as *absolute* (see [`PseudoLossSource::is_absolute`]).
@@ -309,9 +327,7 @@ pub trait PseudoLossSource {
     /// The checked and shifted pseudo-loss: [`PseudoLossSource::write_pseudo_loss`], then
     /// [`PseudoLoss::from_raw`]. An implementation may give the same result by a shorter way.
     fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
-        let mut raw = [0.0f32; MAX_ACTIONS];
-        self.write_pseudo_loss(round, &mut raw)?;
-        PseudoLoss::from_raw_as(raw, round.allowed(), self.is_absolute())
+        PseudoLoss::written(self, round)
     }
 }
 
@@ -738,9 +754,7 @@ impl PseudoLossSource for Feedback {
         if let Feedback::Action(f) = self {
             return f.to_pseudo_loss(round);
         }
-        let mut raw = [0.0f32; MAX_ACTIONS];
-        self.write_pseudo_loss(round, &mut raw)?;
-        PseudoLoss::from_raw_as(raw, round.allowed(), self.is_absolute())
+        PseudoLoss::written(self, round)
     }
 }
 
