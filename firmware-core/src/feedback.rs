@@ -177,8 +177,9 @@ impl<'a> Round<'a> {
 pub struct PseudoLoss {
     values: [f32; MAX_ACTIONS],
     /// Bit `i` set when entry `i` is 0 (of either sign): the allowed actions holding the minimum,
-    /// and every forbidden one.
-    zeros: u64,
+    /// and every forbidden one. Low word first: two `u32`s keep the struct 4-aligned (a `u64`
+    /// would make each copy on the car's stack 12 bytes larger, not 8).
+    zeros: [u32; 2],
     absolute: bool,
 }
 
@@ -196,7 +197,7 @@ impl PseudoLoss {
     fn raw(absolute: bool) -> Self {
         Self {
             values: [0.0; MAX_ACTIONS],
-            zeros: 0,
+            zeros: [0; 2],
             absolute,
         }
     }
@@ -262,7 +263,7 @@ impl PseudoLoss {
             }
             zeros |= (z as u64) << (8 * k);
         }
-        self.zeros = zeros;
+        self.zeros = split(zeros);
         Ok(())
     }
 
@@ -289,7 +290,7 @@ impl PseudoLoss {
     /// actions, the ones `Δ` points to (`argmin Δ`).
     #[inline]
     pub fn zeros(&self) -> u64 {
-        self.zeros
+        (self.zeros[1] as u64) << 32 | self.zeros[0] as u64
     }
 }
 
@@ -299,6 +300,12 @@ impl Index<ActionIndex> for PseudoLoss {
     fn index(&self, a: ActionIndex) -> &f32 {
         &self.values[a.get()]
     }
+}
+
+/// A 64-bit mask as two words, low first (see [`PseudoLoss`]'s `zeros`).
+#[inline]
+fn split(bits: u64) -> [u32; 2] {
+    [bits as u32, (bits >> 32) as u32]
 }
 
 /// Anything that becomes a pseudo-loss over a round's actions.
@@ -383,7 +390,7 @@ impl PseudoLossSource for ActionFeedback {
         values[self.action.get()] = 0.0;
         Ok(PseudoLoss {
             values,
-            zeros: !bits | 1 << self.action.get(),
+            zeros: split(!bits | 1 << self.action.get()),
             absolute: true,
         })
     }
