@@ -27,6 +27,10 @@ fn bench(c: &mut Criterion) {
     g.throughput(Throughput::Elements(1));
     let episode = Episode::new(scenario.clone());
     g.bench_function("observe", |b| b.iter(|| black_box(episode.observe())));
+    // What an in-process run senses: the beams only as far as an evaluation can see.
+    g.bench_function("observe_near", |b| {
+        b.iter(|| black_box(episode.observe_near()))
+    });
     g.finish();
 }
 

@@ -86,6 +86,14 @@ pub trait CarLink {
     fn feedback(&mut self, tick: u32, feedback: &Feedback) -> Result<()>;
     /// The learner's current parameters and state.
     fn snapshot(&mut self) -> Result<LearnerSnapshot>;
+    /// Whether [`CarLink::act_evaluated`] reads the observation's scan beyond what its
+    /// evaluation holds. By default, and for a learner elsewhere, it does (the car gets the
+    /// observation itself): [`run_with`] gives it [`Episode::observe`]'s. A learner that acts on
+    /// the host's evaluation alone says no, and gets [`Episode::observe_near`]'s, which casts
+    /// the beams only as far as an evaluation can see (the same evaluation, bit for bit).
+    fn reads_whole_scan(&self) -> bool {
+        true
+    }
 }
 
 /// The firmware's [`Agent`], called directly.
@@ -147,6 +155,10 @@ impl CarLink for InProcessLink {
     fn snapshot(&mut self) -> Result<LearnerSnapshot> {
         Ok(self.agent.learner().snapshot())
     }
+
+    fn reads_whole_scan(&self) -> bool {
+        false
+    }
 }
 
 /// The learner with `weights` as its initial (and, frozen, final) weights.
@@ -185,8 +197,13 @@ pub fn run_with(
     let mut informativeness = Vec::new();
     let mut corrections = 0u32;
     let mut resets = [0u32; 4];
+    let whole_scan = link.reads_whole_scan();
     for step in 0..config.steps {
-        let obs = episode.observe();
+        let obs = if whole_scan {
+            episode.observe()
+        } else {
+            episode.observe_near()
+        };
         let pose = episode.car().pose;
         let checked = obs
             .check()

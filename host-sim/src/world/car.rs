@@ -23,7 +23,7 @@
 //! heading's `UnitComplex`, built from libm's cosine and sine as firmware-core's lattice does);
 //! all transcendental functions go through `libm`, so results are the same on every host.
 
-use firmware_core::lattice::Trajectory;
+use firmware_core::lattice::{SAMPLES, Trajectory};
 use nalgebra::{Isometry2, Point2, UnitComplex, Vector2};
 
 use crate::world::map::OccupancyGrid;
@@ -64,7 +64,14 @@ impl Pose {
     /// The transform from this pose's frame (x forward, y left) to the world's.
     #[inline]
     pub fn isometry(&self) -> Isometry2<f64> {
-        Isometry2::from_parts(self.position().coords.into(), self.rotation())
+        self.isometry_turned(self.rotation())
+    }
+
+    /// [`Pose::isometry`] with the heading's rotation given (`self.rotation()`, computed once
+    /// by a caller that needs it more than once).
+    #[inline]
+    pub fn isometry_turned(&self, rotation: UnitComplex<f64>) -> Isometry2<f64> {
+        Isometry2::from_parts(self.position().coords.into(), rotation)
     }
 
     /// The world point of a point given in this pose's frame.
@@ -137,27 +144,90 @@ impl CarParams {
     /// Whether the footprint at `pose` overlaps a cell that is not free. Samples the rectangle
     /// on a grid no coarser than half a cell (edges included).
     pub fn footprint_hits(&self, map: &OccupancyGrid, pose: Pose) -> bool {
+        self.footprint_hits_turned(map, pose, pose.rotation())
+    }
+
+    /// [`CarParams::footprint_hits`] with the heading's rotation given (`pose.rotation()`).
+    pub fn footprint_hits_turned(
+        &self,
+        map: &OccupancyGrid,
+        pose: Pose,
+        rotation: UnitComplex<f64>,
+    ) -> bool {
+        self.footprint_on(map).hits(map, pose, rotation)
+    }
+
+    /// What [`CarParams::footprint_hits`] computes from the car's size and `map`'s resolution
+    /// alone, once for many poses.
+    pub fn footprint_on(&self, map: &OccupancyGrid) -> Footprint {
         let step = map.resolution() / 2.0;
-        let nx = libm::ceil(self.length / step) as usize;
-        let ny = libm::ceil(self.width / step) as usize;
-        let iso = pose.isometry();
-        let centre = iso * Point2::new(self.center_offset, 0.0);
         // Every sample is within the half-diagonal of the centre, so its cell is at most
         // ⌊half-diagonal / resolution⌋ + 1 cells from the centre's along each axis (one more for
         // rounding). If all cells that near are free, no sample can hit: the same answer as the
-        // loop below, without it.
+        // loop over the samples, without it.
         let reach = libm::sqrt(self.length * self.length + self.width * self.width) / 2.0;
-        let near = (reach / map.resolution()).floor() + 2.0;
+        // The same for each quarter of the rectangle (halves of the samples along each side),
+        // around its own centre: half the diagonal.
+        let quarter = reach / 2.0;
+        Footprint {
+            car: *self,
+            nx: libm::ceil(self.length / step) as usize,
+            ny: libm::ceil(self.width / step) as usize,
+            near: (reach / map.resolution()).floor() + 2.0,
+            near_quarter: (quarter / map.resolution()).floor() + 2.0,
+        }
+    }
+}
+
+/// The footprint test of [`CarParams::footprint_hits`] for one car on maps of one resolution
+/// ([`CarParams::footprint_on`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Footprint {
+    car: CarParams,
+    /// Sample intervals along the length and the width.
+    nx: usize,
+    ny: usize,
+    /// A centre with a clearance above this many cells is clear.
+    near: f64,
+    /// The same for a quarter's centre and its samples.
+    near_quarter: f64,
+}
+
+impl Footprint {
+    /// [`CarParams::footprint_hits_turned`] on a map of the resolution this was made for.
+    pub fn hits(&self, map: &OccupancyGrid, pose: Pose, rotation: UnitComplex<f64>) -> bool {
+        let Self {
+            car,
+            nx,
+            ny,
+            near,
+            near_quarter,
+        } = *self;
+        let iso = pose.isometry_turned(rotation);
+        let centre = iso * Point2::new(car.center_offset, 0.0);
         if (map.clearance_cells(centre.x, centre.y) as f64) > near {
             return false;
         }
-        for i in 0..=nx {
-            let u = -self.length / 2.0 + self.length * i as f64 / nx as f64;
-            for j in 0..=ny {
-                let v = -self.width / 2.0 + self.width * j as f64 / ny as f64;
-                let p = centre + iso.rotation * Vector2::new(u, v);
-                if map.is_blocked(p.x, p.y) {
-                    return true;
+        let u = |i: usize| -car.length / 2.0 + car.length * i as f64 / nx as f64;
+        let v = |j: usize| -car.width / 2.0 + car.width * j as f64 / ny as f64;
+        // Near a wall: the samples by quarters (indices `0..=n/2` and `n/2 + 1..=n` along each
+        // side), each skipped when its own centre's clearance shows it clear, as above (its
+        // samples lie within half its diagonal of that centre, at most a quarter's).
+        let halves = |n: usize| [(0, n / 2), (n / 2 + 1, n)];
+        for (i0, i1) in halves(nx) {
+            for (j0, j1) in halves(ny) {
+                let middle = Vector2::new((u(i0) + u(i1)) / 2.0, (v(j0) + v(j1)) / 2.0);
+                let m = centre + iso.rotation * middle;
+                if (map.clearance_cells(m.x, m.y) as f64) > near_quarter {
+                    continue;
+                }
+                for i in i0..=i1 {
+                    for j in j0..=j1 {
+                        let p = centre + iso.rotation * Vector2::new(u(i), v(j));
+                        if map.is_blocked(p.x, p.y) {
+                            return true;
+                        }
+                    }
                 }
             }
         }
@@ -188,6 +258,22 @@ impl CarState {
 
     /// One physics step of `dt` towards the commanded steering and speed.
     pub fn step(&mut self, p: &CarParams, steering_cmd: f64, speed_cmd: f64, dt: f64) {
+        let rotation = self.pose.rotation();
+        self.step_turned(p, steering_cmd, speed_cmd, dt, rotation);
+    }
+
+    /// [`CarState::step`] with the heading's rotation given (`self.pose.rotation()`); returns
+    /// the new heading's (the same bits as `self.pose.rotation()` after the step: the arc's end
+    /// heading is the new heading unless it had to be wrapped).
+    pub fn step_turned(
+        &mut self,
+        p: &CarParams,
+        steering_cmd: f64,
+        speed_cmd: f64,
+        dt: f64,
+        rotation: UnitComplex<f64>,
+    ) -> UnitComplex<f64> {
+        let (cos_th, sin_th) = (rotation.cos_angle(), rotation.sin_angle());
         let target = steering_cmd.clamp(-p.max_steering, p.max_steering);
         let ds = p.steering_rate * dt;
         self.steering += (target - self.steering).clamp(-ds, ds);
@@ -197,13 +283,20 @@ impl CarState {
         let k = libm::tan(self.steering) / p.wheelbase;
         let th = self.pose.theta;
         if libm::fabs(k * s) < 1e-9 {
-            self.pose.x += s * libm::cos(th);
-            self.pose.y += s * libm::sin(th);
+            self.pose.x += s * cos_th;
+            self.pose.y += s * sin_th;
+            rotation
         } else {
             let th2 = th + k * s;
-            self.pose.x += (libm::sin(th2) - libm::sin(th)) / k;
-            self.pose.y -= (libm::cos(th2) - libm::cos(th)) / k;
+            let (cos2, sin2) = (libm::cos(th2), libm::sin(th2));
+            self.pose.x += (sin2 - sin_th) / k;
+            self.pose.y -= (cos2 - cos_th) / k;
             self.pose.theta = wrap_angle(th2);
+            if self.pose.theta.to_bits() == th2.to_bits() {
+                UnitComplex::from_cos_sin_unchecked(cos2, sin2)
+            } else {
+                self.pose.rotation()
+            }
         }
     }
 }
@@ -211,13 +304,30 @@ impl CarState {
 /// Pure pursuit along one lattice trajectory fixed in the world.
 #[derive(Clone, Debug)]
 pub struct Tracker {
-    /// Polyline: the start pose then the trajectory's poses, world frame.
-    points: Vec<Point2<f64>>,
-    /// Length of each polyline segment.
-    lens: Vec<f64>,
-    /// Heading at the end, for the straight extension.
-    end_heading: f64,
+    /// The polyline's segments: from the start pose through the trajectory's poses, world
+    /// frame.
+    segments: [Segment; SAMPLES],
+    /// The polyline's last point.
+    last: Point2<f64>,
+    /// Its length (the segments' lengths summed in order).
+    total: f64,
+    /// The heading at the end, for the straight extension, as a rotation.
+    end_rotation: UnitComplex<f64>,
     speed: f64,
+}
+
+/// One segment of a [`Tracker`]'s polyline, with what every projection onto it needs.
+#[derive(Clone, Copy, Debug, Default)]
+struct Segment {
+    /// Its start.
+    a: Point2<f64>,
+    /// Its end minus its start.
+    d: Vector2<f64>,
+    /// `d`'s squared length and length.
+    len2: f64,
+    len: f64,
+    /// The arc length at its start (the lengths before it summed in order).
+    s0: f64,
 }
 
 impl Tracker {
@@ -226,17 +336,34 @@ impl Tracker {
 
     /// Fixes `trajectory` in the world at `origin` (the pose where it was chosen).
     pub fn new(origin: Pose, trajectory: &Trajectory) -> Self {
-        let iso = origin.isometry();
-        let mut points = Vec::with_capacity(trajectory.poses().len() + 1);
-        points.push(origin.position());
-        for p in trajectory.poses() {
-            points.push(iso * Point2::new(p.x as f64, p.y as f64));
+        Self::new_turned(origin, origin.rotation(), trajectory)
+    }
+
+    /// [`Tracker::new`] with the origin's rotation given (`origin.rotation()`).
+    pub fn new_turned(origin: Pose, rotation: UnitComplex<f64>, trajectory: &Trajectory) -> Self {
+        let iso = origin.isometry_turned(rotation);
+        let mut segments = [Segment::default(); SAMPLES];
+        let mut a = origin.position();
+        let mut s0 = 0.0;
+        for (segment, p) in segments.iter_mut().zip(trajectory.poses()) {
+            let b = iso * Point2::new(p.x as f64, p.y as f64);
+            let d = b - a;
+            let len = d.norm();
+            *segment = Segment {
+                a,
+                d,
+                len2: d.norm_squared(),
+                len,
+                s0,
+            };
+            s0 += len;
+            a = b;
         }
-        let lens = points.windows(2).map(|w| (w[1] - w[0]).norm()).collect();
         Self {
-            points,
-            lens,
-            end_heading: origin.theta + trajectory.end().theta as f64,
+            segments,
+            last: a,
+            total: s0,
+            end_rotation: crate::world::car::rotation(origin.theta + trajectory.end().theta as f64),
             speed: trajectory.speed as f64,
         }
     }
@@ -248,50 +375,43 @@ impl Tracker {
 
     /// Steering command for the car at `pose`.
     pub fn steering(&self, pose: Pose, p: &CarParams) -> f64 {
-        // Project the rear axle onto the polyline: (segment, arc length).
+        self.steering_turned(pose, pose.rotation(), p)
+    }
+
+    /// [`Tracker::steering`] with the pose's rotation given (`pose.rotation()`).
+    pub fn steering_turned(&self, pose: Pose, turn: UnitComplex<f64>, p: &CarParams) -> f64 {
+        // Project the rear axle onto the polyline: (arc length, squared distance); the first
+        // nearest segment's.
         let at = pose.position();
-        let mut best = (0usize, 0.0f64, f64::INFINITY);
-        let mut s0 = 0.0;
-        let lens = &self.lens;
-        for i in 0..self.points.len() - 1 {
-            let (a, d) = (self.points[i], self.points[i + 1] - self.points[i]);
-            let len2 = d.norm_squared();
-            let len = lens[i];
-            let t = if len2 > 0.0 {
-                ((at - a).dot(&d) / len2).clamp(0.0, 1.0)
+        let mut best = (0.0f64, f64::INFINITY);
+        for g in &self.segments {
+            let t = if g.len2 > 0.0 {
+                ((at - g.a).dot(&g.d) / g.len2).clamp(0.0, 1.0)
             } else {
                 0.0
             };
-            let d2 = (at - (a + d * t)).norm_squared();
-            if d2 < best.2 {
-                best = (i, s0 + t * len, d2);
+            let d2 = (at - (g.a + g.d * t)).norm_squared();
+            if d2 < best.1 {
+                best = (g.s0 + t * g.len, d2);
             }
-            s0 += len;
         }
-        let total = s0;
-        let target_s = best.1 + Self::LOOKAHEAD;
-        let goal = if target_s >= total {
-            let last = self.points[self.points.len() - 1];
-            last + rotation(self.end_heading) * Vector2::new(target_s - total, 0.0)
+        let target_s = best.0 + Self::LOOKAHEAD;
+        let goal = if target_s >= self.total {
+            self.last + self.end_rotation * Vector2::new(target_s - self.total, 0.0)
         } else {
-            let mut s = 0.0;
-            let mut g = self.points[self.points.len() - 1];
-            for (i, len) in lens.iter().enumerate() {
-                if s + len >= target_s {
-                    let t = if *len > 0.0 {
-                        (target_s - s) / len
+            self.segments
+                .iter()
+                .find(|g| g.s0 + g.len >= target_s)
+                .map_or(self.last, |g| {
+                    let t = if g.len > 0.0 {
+                        (target_s - g.s0) / g.len
                     } else {
                         0.0
                     };
-                    let (a, b) = (self.points[i], self.points[i + 1]);
-                    g = a + (b - a) * t;
-                    break;
-                }
-                s += len;
-            }
-            g
+                    g.a + g.d * t
+                })
         };
-        let local = pose.to_local(goal);
+        let local = pose.isometry_turned(turn).inverse_transform_point(&goal);
         let d2 = local.coords.norm_squared();
         if d2 < 1e-12 {
             return 0.0;
@@ -307,6 +427,41 @@ mod tests {
     use super::*;
     use firmware_core::ActionIndex;
     use firmware_core::lattice::trajectory;
+
+    #[test]
+    fn step_turned_returns_the_new_headings_rotation_bit_for_bit() {
+        // Circles both ways (the heading wraps at ±π), straight runs and a stop, from a few
+        // headings: the rotation handed on is the one the new pose gives.
+        let p = CarParams::MUSHR;
+        let (mut wrapped, mut arcs) = (0, 0);
+        for theta in [0.0, 3.1, -3.1, 1.0] {
+            let mut car = CarState::at(Pose {
+                x: 0.0,
+                y: 0.0,
+                theta,
+            });
+            let mut rotation = car.pose.rotation();
+            for i in 0..3000 {
+                let (cmd, speed) = match i / 500 {
+                    0 | 3 => (0.34, 1.0),
+                    1 | 4 => (-0.34, 1.5),
+                    2 => (0.0, 1.0),
+                    _ => (0.0, 0.0),
+                };
+                let before = car.pose.theta;
+                let mut plain = car;
+                plain.step(&p, cmd, speed, 0.01);
+                rotation = car.step_turned(&p, cmd, speed, 0.01, rotation);
+                assert_eq!(plain, car, "step and step_turned agree");
+                let want = car.pose.rotation();
+                assert_eq!(rotation.cos_angle().to_bits(), want.cos_angle().to_bits());
+                assert_eq!(rotation.sin_angle().to_bits(), want.sin_angle().to_bits());
+                arcs += usize::from(before != car.pose.theta);
+                wrapped += usize::from((before - car.pose.theta).abs() > 3.0);
+            }
+        }
+        assert!(arcs > 1000 && wrapped > 4, "{arcs} arcs, {wrapped} wraps");
+    }
 
     #[test]
     fn the_clearance_shortcut_gives_the_sampled_answer() {

@@ -5,7 +5,11 @@
 //!
 //! * **Range scan**: 64 beams cast from the rear axle at the firmware's bearings
 //!   ([`beam_bearing`]) through the occupancy grid (DDA, unknown cells block), at most
-//!   [`SCAN_MAX_RANGE`] = 10 m.
+//!   [`SCAN_MAX_RANGE`] = 10 m. A run whose learner is in this process takes
+//!   [`Episode::observe_near`] instead: each beam cast only to its [`scan_cut`] (0.34 m sideways
+//!   to 1.71 m ahead), beyond which no evaluation can see a scan point; the evaluation is the
+//!   same, bit for bit, and most beams need no cast at all (the clearance around the car, or at
+//!   both ends of the beam, shows them free).
 //! * **Semantic detections**: every object whose nearest point is within [`SENSOR_RANGE`] (5 m)
 //!   and in line of sight (the segment from the sensor to that point crosses no blocked cell
 //!   before its last [`LOS_SLACK_CELLS`] cells, so objects drawn as obstacles, a stairwell's
@@ -39,12 +43,16 @@
 
 use std::sync::{Arc, LazyLock};
 
-use firmware_core::ActionIndex;
-use firmware_core::lattice::trajectory;
+use firmware_core::evaluator::beam_direction;
+use firmware_core::feedback::{DeformedTrajectory, PUSH};
+use firmware_core::lattice::{OBSTACLE_CLIP, trajectory};
 use firmware_core::observation::{
     MAX_OBJECTS, Observation, PathReference, SCAN_BEAMS, SCAN_MAX_RANGE, Scan, beam_bearing,
 };
 use firmware_core::observation::{ObjectList, SemanticObject};
+use firmware_core::{ActionIndex, MAX_ACTIONS};
+
+use nalgebra::Isometry2;
 
 use crate::world::car::{CarParams, CarState, Pose, Tracker, wrap_angle};
 use crate::world::scenario::Scenario;
@@ -222,6 +230,17 @@ impl Episode {
         observe(&self.scenario, &self.car, self.s)
     }
 
+    /// What the car senses now, as far as the evaluator and the features of a perturbation can
+    /// tell: [`Episode::observe`] with every beam cast only to its [`scan_cut`], and a beam
+    /// that reaches it reading [`SCAN_MAX_RANGE`]. Every other number is `observe`'s, bit for
+    /// bit, and so is every evaluation of it (its mask, its features, a deformed trajectory's
+    /// features): no scan point beyond the cut comes within the obstacle clip of any sample. For
+    /// a learner in this process, which acts on the host's evaluation; the car, which gets the
+    /// observation itself, needs [`Episode::observe`].
+    pub fn observe_near(&self) -> Observation {
+        observe_within(&self.scenario, &self.car, self.s, &SCAN_CUT)
+    }
+
     /// One control tick standing still (the teacher stopped the car: an E-stop): the car's speed
     /// drops to 0 and it stays where it is. A car held long enough is stuck and reset, like one
     /// that makes no progress.
@@ -251,15 +270,17 @@ impl Episode {
                 lap: false,
             };
         };
-        let tracker = Tracker::new(self.car.pose, trajectory(action));
+        // The heading's cosine and sine, once per pose (each use would compute the same bits).
+        let mut rotation = self.car.pose.rotation();
+        let tracker = Tracker::new_turned(self.car.pose, rotation, trajectory(action));
+        let footprint = self.params.footprint_on(&self.scenario.map);
         let dt = TICK_SECONDS / PHYSICS_STEPS as f64;
         for _ in 0..PHYSICS_STEPS {
-            let steer = tracker.steering(self.car.pose, &self.params);
-            self.car.step(&self.params, steer, tracker.speed(), dt);
-            if self
-                .params
-                .footprint_hits(&self.scenario.map, self.car.pose)
-            {
+            let steer = tracker.steering_turned(self.car.pose, rotation, &self.params);
+            rotation = self
+                .car
+                .step_turned(&self.params, steer, tracker.speed(), dt, rotation);
+            if footprint.hits(&self.scenario.map, self.car.pose, rotation) {
                 self.reset();
                 return TickResult {
                     reset: Some(ResetReason::Collision),
@@ -318,24 +339,98 @@ static BEAM_DIRECTIONS: LazyLock<[(f64, f64); SCAN_BEAMS]> = LazyLock::new(|| {
     })
 });
 
+/// Margin beyond the obstacle clip within which [`scan_cut`] keeps a beam's point (m): far above
+/// the f32 rounding of the evaluator's distances and the evaluator's own reach margin (1 mm).
+const CUT_MARGIN: f64 = 0.05;
+
+/// Per beam: how far [`Episode::observe_near`] casts it (m). Beyond it, the beam's scan point is
+/// at least the obstacle clip + [`CUT_MARGIN`] from every sample the evaluator measures (every
+/// lattice trajectory's) and every sample of a perturbation's deformed trajectory (every pair
+/// pushed [`PUSH`] of the way, and each trajectory as it is), after the range's rounding to
+/// the wire's centimetres (hence 1 cm more): such a beam is one the evaluator leaves out and
+/// no feature can see, whatever its range.
+pub fn scan_cut(beam: usize) -> Option<f64> {
+    SCAN_CUT.get(beam).copied()
+}
+
+static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
+    let actions = || (0..MAX_ACTIONS).filter_map(ActionIndex::new);
+    let mut points: Vec<[f32; 2]> = Vec::new();
+    for a in actions() {
+        points.extend_from_slice(trajectory(a).samples());
+        for b in actions() {
+            points.extend_from_slice(DeformedTrajectory::between(a, b, PUSH).samples());
+        }
+    }
+    let radius = OBSTACLE_CLIP as f64 + CUT_MARGIN;
+    std::array::from_fn(|j| {
+        let (c, s) = beam_direction(j).unwrap_or((1.0, 0.0));
+        let (c, s) = (c as f64, s as f64);
+        // The farthest range at which the beam's point is within `radius` of a point: the far
+        // end of the chord of the disc around the point.
+        let far = points
+            .iter()
+            .filter_map(|p| {
+                let (x, y) = (p[0] as f64, p[1] as f64);
+                let t = c * x + s * y;
+                let q = t * t - (x * x + y * y) + radius * radius;
+                (q > 0.0).then(|| t + q.sqrt())
+            })
+            .fold(0.0, f64::max);
+        (far + 0.01).min(SCAN_MAX_RANGE as f64)
+    })
+});
+
 /// The observation of a car in `scenario` whose projection onto the path is at arc length `s`,
 /// quantized to the protocol's wire steps (`protocol::quantize::quantize`: ranges in
 /// centimetres, lengths in millimetres, the heading in 10⁻⁴ rad), so that the learner and the
 /// teacher see the same numbers in process as over the link.
 pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
+    observe_within(scenario, car, s, &[SCAN_MAX_RANGE as f64; SCAN_BEAMS])
+}
+
+/// [`observe`] with beam `j` cast only to `cut[j]` (at most [`SCAN_MAX_RANGE`]): a beam that
+/// reaches it reads `SCAN_MAX_RANGE`, every other the range `observe` gives it (the same
+/// traversal, stopped earlier).
+fn observe_within(
+    scenario: &Scenario,
+    car: &CarState,
+    s: f64,
+    cut: &[f64; SCAN_BEAMS],
+) -> Observation {
     let pose = car.pose;
     let map = &scenario.map;
     let mut scan = Scan::EMPTY;
     // Each beam's direction: its unit vector in the car frame turned by the heading.
-    let (sin, cos) = (libm::sin(pose.theta), libm::cos(pose.theta));
-    for (j, &(bc, bs)) in BEAM_DIRECTIONS.iter().enumerate() {
+    let rotation = pose.rotation();
+    let (sin, cos) = (rotation.sin_angle(), rotation.cos_angle());
+    // Every cell within `clearance − 1` cells of the car's is free, and a ray leaves that square
+    // only after at least `clearance − 1` cells of travel: a beam whose cut is shorter by a cell
+    // more reads what its cast would give, SCAN_MAX_RANGE, without the cast.
+    let view = map.viewpoint(pose.x, pose.y);
+    let free = (f64::from(view.clearance_cells()) - 2.0) * map.resolution();
+    for (j, (&(bc, bs), &cut)) in BEAM_DIRECTIONS.iter().zip(cut).enumerate() {
+        if cut <= free {
+            scan.ranges[j] = SCAN_MAX_RANGE;
+            continue;
+        }
         let along = (cos * bc - sin * bs, sin * bc + cos * bs);
-        let r = map.raycast_along(pose.x, pose.y, along, SCAN_MAX_RANGE as f64);
-        scan.ranges[j] = (r as f32).min(SCAN_MAX_RANGE);
+        // Free a cell beyond the cut: the cast would reach the cut (no cast needed).
+        if cut < SCAN_MAX_RANGE as f64 && map.free_from(&view, along, cut + map.resolution()) {
+            scan.ranges[j] = SCAN_MAX_RANGE;
+            continue;
+        }
+        let r = map.raycast_from(&view, along, cut);
+        scan.ranges[j] = if r >= cut {
+            SCAN_MAX_RANGE
+        } else {
+            (r as f32).min(SCAN_MAX_RANGE)
+        };
     }
-    let objects = detect(scenario, pose);
+    let iso = pose.isometry_turned(rotation);
+    let objects = detect_from(scenario, pose, &iso);
     let (r, rh) = scenario.path.point_at(s + LOOKAHEAD);
-    let local = pose.to_local(r);
+    let local = iso.inverse_transform_point(&r);
     let pi = std::f32::consts::PI;
     let heading = (wrap_angle(rh - pose.theta) as f32).clamp(-pi, pi);
     protocol::quantize::quantize(&Observation {
@@ -352,6 +447,11 @@ pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
 
 /// The semantic detections from `pose`.
 pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
+    detect_from(scenario, pose, &pose.isometry())
+}
+
+/// [`detect`] with the pose's transform given (`pose.isometry()`).
+fn detect_from(scenario: &Scenario, pose: Pose, iso: &Isometry2<f64>) -> ObjectList {
     let p = pose.position();
     let slack = LOS_SLACK_CELLS * scenario.map.resolution();
     let mut seen: Vec<(f64, usize)> = Vec::new();
@@ -366,7 +466,7 @@ pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
     for &(_, i) in seen.iter().take(MAX_OBJECTS) {
         let o = &scenario.objects[i];
         let (c, r) = o.disc_seen_from(&p);
-        let local = pose.to_local(c);
+        let local = iso.inverse_transform_point(&c);
         let obj = SemanticObject {
             class: o.class,
             x: local.x as f32,
@@ -508,6 +608,85 @@ mod tests {
             )
             .is_empty()
         );
+    }
+
+    /// The evaluation of `obs` and, for a few pairs, a perturbation's features in it, as text
+    /// (`{:?}` tells −0 from +0: equal text is equal bits).
+    fn seen(obs: &Observation) -> String {
+        let valid = obs.check().unwrap();
+        let evaluation = firmware_core::evaluator::Evaluator::new().evaluation(valid);
+        let pairs = [(0, 63), (5, 40), (20, 21), (33, 7), (63, 0), (12, 12)];
+        let deformed: Vec<_> = pairs
+            .iter()
+            .map(|&(a, b)| {
+                let (a, b) = (ActionIndex::new(a).unwrap(), ActionIndex::new(b).unwrap());
+                DeformedTrajectory::between(a, b, PUSH).features(valid)
+            })
+            .collect();
+        format!("{evaluation:?} {deformed:?}")
+    }
+
+    #[test]
+    fn a_beam_at_its_cut_is_one_no_evaluation_sees() {
+        // The smallest range a beam that reaches its cut can read on the wire (its true range,
+        // at least the cut, rounded to the centimetre), in open space and with every other beam
+        // close enough to be measured (so the evaluator does not take its open-space exit).
+        for others in [SCAN_MAX_RANGE, 0.6] {
+            let mut far = Observation::open_space();
+            far.scan.ranges = [others; SCAN_BEAMS];
+            for j in 0..SCAN_BEAMS {
+                let cut = scan_cut(j).unwrap();
+                assert!(cut > 0.25 && cut < 3.0, "beam {j}: {cut}");
+                let mut near = far.clone();
+                near.scan.ranges[j] = (libm::floor((cut - 0.005) * 100.0) / 100.0) as f32;
+                let mut at_max = far.clone();
+                at_max.scan.ranges[j] = SCAN_MAX_RANGE;
+                assert_eq!(seen(&near), seen(&at_max), "beam {j} at {cut} m");
+            }
+        }
+        assert_eq!(scan_cut(SCAN_BEAMS), None);
+    }
+
+    #[test]
+    fn observe_near_is_evaluated_as_observe_is() {
+        // Every built-in scenario, a few hundred ticks of seeded random allowed actions.
+        for builtin in crate::world::registry::SCENARIOS {
+            let scenario = Arc::new(crate::world::registry::load_scenario(builtin.name).unwrap());
+            let mut e = Episode::new(scenario);
+            let mut evaluator = firmware_core::evaluator::Evaluator::new();
+            let mut state = 0x9e37_79b9_7f4a_7c15u64;
+            let (mut cut_beams, mut steps) = (0, 0);
+            while steps < 300 {
+                let (whole, near) = (e.observe(), e.observe_near());
+                assert_eq!(seen(&whole), seen(&near), "{} tick {steps}", builtin.name);
+                let mut rest = whole.clone();
+                rest.scan = near.scan;
+                assert_eq!(format!("{rest:?}"), format!("{near:?}"), "all but the scan");
+                for j in 0..SCAN_BEAMS {
+                    let cut = scan_cut(j).unwrap() as f32;
+                    let (w, n) = (whole.scan.ranges[j], near.scan.ranges[j]);
+                    if n == SCAN_MAX_RANGE && w != n {
+                        assert!(w >= cut - 0.006, "{} beam {j}: {w} read {n}", builtin.name);
+                        cut_beams += 1;
+                    } else {
+                        assert_eq!(w.to_bits(), n.to_bits(), "{} beam {j}", builtin.name);
+                    }
+                }
+                let allowed: Vec<_> = evaluator
+                    .evaluation(whole.check().unwrap())
+                    .allowed()
+                    .iter()
+                    .collect();
+                state = state
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                let action =
+                    (!allowed.is_empty()).then(|| allowed[(state >> 33) as usize % allowed.len()]);
+                e.drive(action);
+                steps += 1;
+            }
+            assert!(cut_beams > 0, "{}: some beam was cut", builtin.name);
+        }
     }
 
     #[test]

@@ -398,10 +398,9 @@ impl Teacher {
     /// on instead of evaluating the observation again.
     pub fn judge_checked(&mut self, obs: ValidObservation<'_>) -> Judgement {
         let evaluation = self.evaluator.evaluation(obs);
-        Judgement {
-            observation: Some(obs.get().clone()),
-            ..self.judge_evaluation(evaluation)
-        }
+        let mut judgement = self.judge_evaluation(evaluation);
+        judgement.observation = Some(obs.get().clone());
+        judgement
     }
 
     /// Perceives the latent loss of every action of an observation evaluated already (by any

@@ -1,17 +1,7 @@
 //! The `host-sim` command: outputs, help, and clear errors with a non-zero exit.
 
+use crate::support::{host_sim, stderr};
 use std::process::{Command, Output};
-
-fn host_sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 #[test]
 fn run_writes_the_csv_and_the_summary() {

@@ -2,20 +2,8 @@
 //! documents them, a bad mix is refused naming its bad part, and the outputs say which kind
 //! each correction was and what it cost (issue 15).
 
-use std::process::{Command, Output};
-
+use crate::support::{host_sim, stderr};
 use firmware_core::FeedbackKind;
-
-fn host_sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
 
 #[test]
 fn run_help_documents_every_kind_and_the_mix_syntax() {

@@ -3,9 +3,9 @@
 //! path; bad options are refused with a message; a seed that gives no world says why.
 
 use std::path::Path;
-use std::process::{Command, Output};
 use std::sync::Arc;
 
+use crate::support::host_sim;
 use host_sim::teach::experiment::{self, Mode, RunConfig};
 use host_sim::teach::record::fnv1a;
 use host_sim::world::generator::{self, GenerateError, Options, OptionsError, World, check};
@@ -13,13 +13,6 @@ use host_sim::world::map::Cell;
 use host_sim::world::scenario::Scenario;
 use host_sim::world::teacher::{PRESETS, TeacherSpec};
 use rayon::prelude::*;
-
-fn host_sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
 
 fn digest(w: &World) -> [u64; 3] {
     w.files().map(|(_, bytes)| fnv1a(bytes))

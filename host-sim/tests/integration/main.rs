@@ -18,4 +18,5 @@ mod reproduce;
 mod run_files;
 mod run_link;
 mod scenarios;
+mod support;
 mod teach;

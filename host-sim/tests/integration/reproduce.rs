@@ -4,18 +4,12 @@
 //! machine.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
+use crate::support::host_sim;
 use host_sim::report::claims::{CLAIMS, SHORT};
 
 const TINY: [&str; 6] = ["--trials", "2", "--steps", "40", "--worlds", "3"];
-
-fn host_sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
 
 fn ok(o: &Output) {
     assert!(

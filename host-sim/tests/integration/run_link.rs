@@ -3,21 +3,15 @@
 //! and a missing key.
 
 use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
+use crate::support::host_sim;
 use hil_mock::server::Server;
 use hil_mock::transport::udp::UdpLink;
 use protocol::car::CarConfig;
 use protocol::isotp::FrameMode;
-
-fn host_sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
 
 #[test]
 fn run_over_udp_writes_the_same_csv_as_in_process() {

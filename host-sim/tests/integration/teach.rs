@@ -3,17 +3,11 @@
 //! overwritten, and bad session folders are named. (The page itself is tested in a real browser
 //! by tests/console.rs.)
 
+use crate::support::host_sim;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn host_sim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_host-sim"))
-        .args(args)
-        .output()
-        .expect("the binary runs")
-}
 
 /// Status line and body of a GET of `path` on `authority` with extra header lines.
 fn get(authority: &str, path: &str, headers: &str) -> (String, String) {
