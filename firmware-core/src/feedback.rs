@@ -176,37 +176,95 @@ impl<'a> Round<'a> {
 #[derive(Clone, PartialEq, Debug)]
 pub struct PseudoLoss {
     values: [f32; MAX_ACTIONS],
+    /// Bit `i` set when entry `i` is 0 (of either sign): the allowed actions holding the minimum,
+    /// and every forbidden one. Low word first: two `u32`s keep the struct 4-aligned (a `u64`
+    /// would make each copy on the car's stack 12 bytes larger, not 8).
+    zeros: [u32; 2],
     absolute: bool,
 }
 
 impl PseudoLoss {
     /// Checks raw values over the allowed actions and shifts them so that their minimum is 0.
-    pub fn from_raw(
-        mut values: [f32; MAX_ACTIONS],
-        allowed: ActionMask,
+    pub fn from_raw(values: [f32; MAX_ACTIONS], allowed: ActionMask) -> Result<Self, LearnError> {
+        let mut delta = Self::raw(false);
+        delta.values = values;
+        delta.shift(allowed)?;
+        Ok(delta)
+    }
+
+    /// Zeros, to be written raw by a [`PseudoLossSource`] and then [`PseudoLoss::shift`]ed in
+    /// place (no second array of raw values on the stack).
+    fn raw(absolute: bool) -> Self {
+        Self {
+            values: [0.0; MAX_ACTIONS],
+            zeros: [0; 2],
+            absolute,
+        }
+    }
+
+    /// [`PseudoLossSource::write_pseudo_loss`] of `source` into a fresh pseudo-loss, checked and
+    /// shifted in place.
+    fn written<S: PseudoLossSource + ?Sized>(
+        source: &S,
+        round: &Round<'_>,
     ) -> Result<Self, LearnError> {
-        // One comparison per entry for the bound, false for NaN and both infinities; the minimum
-        // in index order (its sign of zero depends on the order), without branches.
+        let mut delta = Self::raw(source.is_absolute());
+        source.write_pseudo_loss(round, &mut delta.values)?;
+        delta.shift(round.allowed())?;
+        Ok(delta)
+    }
+
+    /// [`PseudoLoss::from_raw`]'s check and shift, in place; on `Err` the values are unchanged.
+    fn shift(&mut self, allowed: ActionMask) -> Result<(), LearnError> {
+        let values = &mut self.values;
+        // One comparison per entry for the bound, false for NaN and both infinities, and the
+        // minimum without branches, in eight running minima side by side (eight actions at a
+        // time, each bit of the mask tested at a constant position) rather than one chain of 64
+        // dependent comparisons. Every entry equal to the minimum has its bits but for the sign
+        // of a zero, which the first allowed zero in index order gives, as one running minimum
+        // would (`v < min` keeps the first of equals).
         let bits = allowed.bits();
-        let (mut good, mut min) = (true, f32::INFINITY);
-        for (i, &v) in values.iter().enumerate() {
-            let here = bits >> i & 1 == 1;
-            good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
-            min = if here && v < min { v } else { min };
+        let mut good = true;
+        let mut lanes = [f32::INFINITY; 8];
+        const _: () = assert!(MAX_ACTIONS.is_multiple_of(8));
+        for (k, chunk) in values.as_chunks::<8>().0.iter().enumerate() {
+            let byte = (bits >> (8 * k)) as u8;
+            for j in 0..8 {
+                let here = byte >> j & 1 == 1;
+                let v = chunk[j];
+                good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
+                lanes[j] = if here && v < lanes[j] { v } else { lanes[j] };
+            }
         }
         if !good {
             return Err(LearnError::BadPseudoLoss);
         }
+        let mut min = f32::INFINITY;
+        for m in lanes {
+            min = if m < min { m } else { min };
+        }
+        if min == 0.0
+            && let Some(a) = allowed.iter().find(|a| values[a.get()] == 0.0)
+        {
+            min = values[a.get()];
+        }
         if allowed.is_empty() {
             return Err(LearnError::NoAllowedAction);
         }
-        for (i, v) in values.iter_mut().enumerate() {
-            *v = if bits >> i & 1 == 1 { *v - min } else { 0.0 };
+        // `v − min` is 0 exactly when `v == min` (finite values: no underflow to 0 on the way).
+        let mut zeros = 0u64;
+        for (k, chunk) in values.as_chunks_mut::<8>().0.iter_mut().enumerate() {
+            let byte = (bits >> (8 * k)) as u8;
+            let mut z = 0u8;
+            for (j, v) in chunk.iter_mut().enumerate() {
+                let here = byte >> j & 1 == 1;
+                z |= ((!here | (*v == min)) as u8) << j;
+                *v = if here { *v - min } else { 0.0 };
+            }
+            zeros |= (z as u64) << (8 * k);
         }
-        Ok(Self {
-            values,
-            absolute: false,
-        })
+        self.zeros = split(zeros);
+        Ok(())
     }
 
     /// Marks the pseudo-loss as *absolute* (see [`PseudoLossSource::is_absolute`]).
@@ -227,6 +285,13 @@ impl PseudoLoss {
     pub fn values(&self) -> &[f32; MAX_ACTIONS] {
         &self.values
     }
+
+    /// The entries that are 0, as the bits of an [`ActionMask`]: within the round's allowed
+    /// actions, the ones `Δ` points to (`argmin Δ`).
+    #[inline]
+    pub fn zeros(&self) -> u64 {
+        (self.zeros[1] as u64) << 32 | self.zeros[0] as u64
+    }
 }
 
 impl Index<ActionIndex> for PseudoLoss {
@@ -235,6 +300,12 @@ impl Index<ActionIndex> for PseudoLoss {
     fn index(&self, a: ActionIndex) -> &f32 {
         &self.values[a.get()]
     }
+}
+
+/// A 64-bit mask as two words, low first (see [`PseudoLoss`]'s `zeros`).
+#[inline]
+fn split(bits: u64) -> [u32; 2] {
+    [bits as u32, (bits >> 32) as u32]
 }
 
 /// Anything that becomes a pseudo-loss over a round's actions.
@@ -263,9 +334,7 @@ pub trait PseudoLossSource {
     /// The checked and shifted pseudo-loss: [`PseudoLossSource::write_pseudo_loss`], then
     /// [`PseudoLoss::from_raw`]. An implementation may give the same result by a shorter way.
     fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
-        let mut raw = [0.0f32; MAX_ACTIONS];
-        self.write_pseudo_loss(round, &mut raw)?;
-        Ok(PseudoLoss::from_raw(raw, round.allowed())?.with_absolute(self.is_absolute()))
+        PseudoLoss::written(self, round)
     }
 }
 
@@ -314,17 +383,14 @@ impl PseudoLossSource for ActionFeedback {
     fn to_pseudo_loss(&self, round: &Round<'_>) -> Result<PseudoLoss, LearnError> {
         round.require_allowed(self.action)?;
         let bits = round.allowed().bits();
-        let mut values = [0.0f32; MAX_ACTIONS];
-        for (i, v) in values.iter_mut().enumerate() {
-            *v = if bits >> i & 1 == 1 {
-                WRONG_ACTION_LOSS
-            } else {
-                0.0
-            };
+        let mut values = [WRONG_ACTION_LOSS; MAX_ACTIONS];
+        for a in ActionMask::from_bits(!bits) {
+            values[a.get()] = 0.0;
         }
         values[self.action.get()] = 0.0;
         Ok(PseudoLoss {
             values,
+            zeros: split(!bits | 1 << self.action.get()),
             absolute: true,
         })
     }
@@ -495,27 +561,43 @@ impl PseudoLossSource for SemanticFeedback {
             )),
             None => None,
         };
-        let chosen = round.chosen();
         for a in round.allowed() {
             out[a.get()] = 0.0;
         }
         for s in self.statements() {
-            let f = s.subject.index();
-            let quantity = |a: ActionIndex| match (&cross, s.subject) {
-                (Some(cross), Feature::Path) => cross[a.get()],
-                _ => round.phi(a)[f],
-            };
-            let reference = quantity(chosen);
             let higher = s.wants_higher();
-            for a in round.allowed() {
-                let v = quantity(a);
-                let better = if higher { v > reference } else { v < reference };
-                if !better {
-                    out[a.get()] += SEMANTIC_LOSS;
+            match (&cross, s.subject) {
+                (Some(cross), Feature::Path) => add_fails(round, higher, out, |a| cross[a.get()]),
+                (_, subject) => {
+                    let f = subject.index();
+                    add_fails(round, higher, out, |a| round.phi(a)[f])
                 }
             }
         }
         Ok(())
+    }
+}
+
+/// Adds [`SEMANTIC_LOSS`] to `out` for every allowed action that does not do strictly better
+/// than the learner's choice on `quantity` (higher or lower, as the statement wants), and 0 to
+/// the others: without a branch, and the same bits (`x + 0 = x` for the `x ≥ 0` here).
+#[inline(always)]
+fn add_fails(
+    round: &Round<'_>,
+    higher: bool,
+    out: &mut [f32; MAX_ACTIONS],
+    quantity: impl Fn(ActionIndex) -> f32,
+) {
+    let reference = quantity(round.chosen());
+    for a in round.allowed() {
+        let v = quantity(a);
+        // `v > reference` or `v < reference`.
+        let (x, y) = if higher {
+            (v, reference)
+        } else {
+            (reference, v)
+        };
+        out[a.get()] += if x > y { 0.0 } else { SEMANTIC_LOSS };
     }
 }
 
@@ -679,9 +761,7 @@ impl PseudoLossSource for Feedback {
         if let Feedback::Action(f) = self {
             return f.to_pseudo_loss(round);
         }
-        let mut raw = [0.0f32; MAX_ACTIONS];
-        self.write_pseudo_loss(round, &mut raw)?;
-        Ok(PseudoLoss::from_raw(raw, round.allowed())?.with_absolute(self.is_absolute()))
+        PseudoLoss::written(self, round)
     }
 }
 

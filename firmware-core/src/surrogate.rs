@@ -43,9 +43,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::action::{ActionIndex, MAX_ACTIONS};
+use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
 use crate::feature::{FEATURE_COUNT, Features, Weights, dot};
 use crate::feedback::{PseudoLoss, Round};
+use crate::policy;
 
 /// Which convex surrogate a learner minimises.
 #[derive(Clone, Copy, PartialEq, Eq, Hash, Debug, Serialize, Deserialize)]
@@ -84,20 +85,46 @@ impl SurrogateEval {
 /// `â`: the minimiser of `Δ` over the allowed actions, ties to the highest score then the lowest
 /// index.
 pub fn target(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> ActionIndex {
+    let zeros = delta.zeros() & round.allowed().bits();
+    if zeros != 0 {
+        // The minimum is 0 (always, for a pseudo-loss of this round): `â` is the best scored of
+        // the zeros, without a score anywhere else; alone, without a score at all.
+        let table = round.features();
+        return best_among(ActionMask::from_bits(zeros), |a| dot(w, &table[a]));
+    }
     target_of(&scores(w, round), round, delta)
 }
 
-/// The score `w · φ(a)` of every action (forbidden ones too, never read): one pass without a
-/// branch, shared by the target and the hinge.
+/// The action of highest score among `among` (not empty), lowest index on ties: `target_of`'s
+/// comparisons over the actions whose `Δ` is the minimum. A single action is not scored.
+#[inline(always)]
+fn best_among(among: ActionMask, score: impl Fn(ActionIndex) -> f32) -> ActionIndex {
+    let mut it = among.iter();
+    let Some(first) = it.next() else {
+        return ActionIndex::FIRST;
+    };
+    if it.len() == 0 {
+        return first;
+    }
+    let (mut best, mut best_score) = (first, score(first));
+    for a in it {
+        let s = score(a);
+        if s > best_score {
+            best = a;
+            best_score = s;
+        }
+    }
+    best
+}
+
+/// The score `w · φ(a)` of every allowed action (forbidden ones are 0, never read).
 fn scores(w: &Weights, round: &Round<'_>) -> [f32; MAX_ACTIONS] {
     let mut out = [0.0f32; MAX_ACTIONS];
-    for (s, row) in out.iter_mut().zip(round.features().rows()) {
-        *s = dot(w, row);
-    }
+    policy::scores(w, round.features(), round.allowed(), &mut out);
     out
 }
 
-/// [`target`] from the scores: the same comparisons in the same order.
+/// [`target`] from the scores, for any `Δ`: the minimum of `Δ` first, then the highest score.
 fn target_of(scores: &[f32; MAX_ACTIONS], round: &Round<'_>, delta: &PseudoLoss) -> ActionIndex {
     let mut best = round.chosen();
     let mut best_delta = f32::INFINITY;
@@ -122,26 +149,58 @@ fn difference(a: &Features, b: &Features) -> Features {
 }
 
 /// The generalized hinge `max_i [Δ_i + (s_i − s_â)]` and its subgradient at `w`.
+///
+/// One pass of scores over the allowed actions. When a single action holds the minimum of `Δ`
+/// (action feedback always, most others) `â` is known before any score and each score is used
+/// where it is computed; otherwise `â` is the best scored of the minimum's actions, read from
+/// the pass.
 pub fn generalized_hinge(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> SurrogateEval {
-    let scores = scores(w, round);
-    let hat = target_of(&scores, round, delta);
-    let s_hat = scores[hat.get()];
-    // The target's own term is Δ_â + 0 = 0: start there so that ties keep the zero subgradient.
-    let mut sel = hat;
-    let mut value = delta[hat];
-    for a in round.allowed() {
-        let v = delta[a] + (scores[a.get()] - s_hat);
-        if a != hat && v > value {
-            value = v;
-            sel = a;
+    let zeros = ActionMask::from_bits(delta.zeros() & round.allowed().bits());
+    let table = round.features();
+    let mut it = zeros.iter();
+    let (hat, value, sel) = match (it.next(), it.len()) {
+        (Some(hat), 0) => hinge_from(hat, dot(w, &table[hat]), round, delta, |a| {
+            dot(w, &table[a])
+        }),
+        (first, _) => {
+            let scores = scores(w, round);
+            let hat = match first {
+                Some(_) => best_among(zeros, |a| scores[a.get()]),
+                None => target_of(&scores, round, delta),
+            };
+            hinge_from(hat, scores[hat.get()], round, delta, |a| scores[a.get()])
         }
-    }
+    };
     SurrogateEval {
         value,
         target: hat,
         maximiser: sel,
         subgradient: difference(round.phi(sel), round.phi(hat)),
     }
+}
+
+/// The hinge's maximum and maximiser given `â`, its score and every allowed action's.
+#[inline(always)]
+fn hinge_from(
+    hat: ActionIndex,
+    s_hat: f32,
+    round: &Round<'_>,
+    delta: &PseudoLoss,
+    score: impl Fn(ActionIndex) -> f32,
+) -> (ActionIndex, f32, ActionIndex) {
+    // The target's own term is Δ_â + 0 = 0: start there so that ties keep the zero subgradient
+    // (the term of `â` in the loop, Δ_â + (s_â − s_â) = Δ_â, never exceeds the running value,
+    // which starts at Δ_â and only grows: no test of `a ≠ â`).
+    let mut sel = hat;
+    let mut value = delta[hat];
+    for a in round.allowed() {
+        let v = delta[a] + (score(a) - s_hat);
+        if v > value {
+            value = v;
+            sel = a;
+        }
+    }
+    (hat, value, sel)
 }
 
 /// The perceptron loss `s_{a_t} − s_â` (never below 0 since `a_t` is the argmax) and its
