@@ -277,8 +277,8 @@ pub struct CarNode {
 }
 
 /// Storage for a [`CarNode`] whose every byte is zero, so that a `static` holding it lands in
-/// `.bss`: no flash for an initial value (a `static` [`CarNode::new`] is 11.6 KiB of `.data`,
-/// copied from flash at start, of which 19 bytes are not zero), and never built on the stack.
+/// `.bss`: no flash for an initial value (a `static` [`CarNode::new`] was 11.6 KiB of `.data`
+/// when this came, copied from flash at start, of which 19 bytes were not zero), and never built on the stack.
 /// The node inside is reached only through [`CarNodeSlot::init`], which completes it in place
 /// into what [`CarNode::new`] makes.
 ///

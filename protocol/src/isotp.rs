@@ -399,11 +399,6 @@ impl<const N: usize> Reassembler<N> {
         }
     }
 
-    /// Sets the timeout between consecutive frames of a message (ms).
-    pub fn set_timeout(&mut self, timeout_ms: u32) {
-        self.core.set_timeout(timeout_ms);
-    }
-
     /// Whether a message is in progress.
     pub fn is_receiving(&self) -> bool {
         self.core.is_receiving()
@@ -434,7 +429,7 @@ impl<const N: usize> Reassembler<N> {
 /// The state of one stream's reassembly, apart from its buffer: a [`Reassembler`] holds its
 /// own, an [`Inbox`](crate::link::Inbox) lends each stream its part of one buffer (sized per
 /// stream by the largest message the stream carries).
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub(crate) struct Reassembly {
     state: State,
     timeout_ms: u32,

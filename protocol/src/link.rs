@@ -244,19 +244,9 @@ impl Inbox {
     pub const fn with_timeout(direction: Direction, timeout_ms: u32) -> Self {
         Self {
             direction,
-            streams: [const { Reassembly::with_timeout(0) }; CLASS_COUNT],
+            streams: [Reassembly::with_timeout(timeout_ms); CLASS_COUNT],
             buffers: [0; BUFFER_STARTS[CLASS_COUNT]],
         }
-        .timeout(timeout_ms)
-    }
-
-    const fn timeout(mut self, timeout_ms: u32) -> Self {
-        let mut i = 0;
-        while i < CLASS_COUNT {
-            self.streams[i] = Reassembly::with_timeout(timeout_ms);
-            i += 1;
-        }
-        self
     }
 
     /// Sets the timeout between frames of every reassembler, in place.

@@ -144,17 +144,7 @@ impl CarParams {
     /// Whether the footprint at `pose` overlaps a cell that is not free. Samples the rectangle
     /// on a grid no coarser than half a cell (edges included).
     pub fn footprint_hits(&self, map: &OccupancyGrid, pose: Pose) -> bool {
-        self.footprint_hits_turned(map, pose, pose.rotation())
-    }
-
-    /// [`CarParams::footprint_hits`] with the heading's rotation given (`pose.rotation()`).
-    pub fn footprint_hits_turned(
-        &self,
-        map: &OccupancyGrid,
-        pose: Pose,
-        rotation: UnitComplex<f64>,
-    ) -> bool {
-        self.footprint_on(map).hits(map, pose, rotation)
+        self.footprint_on(map).hits(map, pose, pose.rotation())
     }
 
     /// What [`CarParams::footprint_hits`] computes from the car's size and `map`'s resolution
@@ -194,7 +184,8 @@ pub struct Footprint {
 }
 
 impl Footprint {
-    /// [`CarParams::footprint_hits_turned`] on a map of the resolution this was made for.
+    /// [`CarParams::footprint_hits`] with the heading's rotation given (`pose.rotation()`), on a
+    /// map of the resolution this was made for.
     pub fn hits(&self, map: &OccupancyGrid, pose: Pose, rotation: UnitComplex<f64>) -> bool {
         let Self {
             car,

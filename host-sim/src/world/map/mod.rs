@@ -382,11 +382,19 @@ impl OccupancyGrid {
     /// angle: no trigonometry per ray when the caller rotates directions it knows (the scan's
     /// beams by the car's heading). The same distance as `raycast` at the vector's angle, to
     /// rounding.
-    pub fn raycast_along(&self, x: f64, y: f64, (dx, dy): (f64, f64), max_range: f64) -> f64 {
+    pub fn raycast_along(&self, x: f64, y: f64, along: (f64, f64), max_range: f64) -> f64 {
         let (gx, gy) = self.to_grid(x, y);
-        let gdx = dx * self.cos_yaw + dy * self.sin_yaw;
-        let gdy = -dx * self.sin_yaw + dy * self.cos_yaw;
+        let (gdx, gdy) = self.grid_direction(along);
         self.cast(gx, gy, gdx, gdy, max_range)
+    }
+
+    /// The unit vector `(dx, dy)` of the world frame in the grid's (turned by the origin's yaw).
+    #[inline]
+    fn grid_direction(&self, (dx, dy): (f64, f64)) -> (f64, f64) {
+        (
+            dx * self.cos_yaw + dy * self.sin_yaw,
+            -dx * self.sin_yaw + dy * self.cos_yaw,
+        )
     }
 
     /// The traversal of [`OccupancyGrid::raycast`] from grid point `(gx, gy)` along the unit
@@ -473,9 +481,11 @@ impl OccupancyGrid {
             return true;
         }
         let along = (dx / len, dy / len);
-        // Free a cell beyond the reach: the cast would end at the reach (no cast needed).
-        self.free_by_its_ends(a.0, a.1, along, reach + self.resolution)
-            || self.raycast_along(a.0, a.1, along, reach) >= reach
+        // Free a cell beyond the reach: the cast would end at the reach (no cast needed). One
+        // viewpoint for both.
+        let view = self.viewpoint(a.0, a.1);
+        self.free_from(&view, along, reach + self.resolution)
+            || self.raycast_from(&view, along, reach) >= reach
     }
 
     /// Whether every point of the segment from `(x, y)` along the unit vector `(dx, dy)` (world
@@ -504,21 +514,19 @@ impl OccupancyGrid {
 
     /// [`OccupancyGrid::raycast_along`] from `view` (the same distance, bit for bit).
     #[inline]
-    pub fn raycast_from(&self, view: &Viewpoint, (dx, dy): (f64, f64), max_range: f64) -> f64 {
-        let gdx = dx * self.cos_yaw + dy * self.sin_yaw;
-        let gdy = -dx * self.sin_yaw + dy * self.cos_yaw;
+    pub fn raycast_from(&self, view: &Viewpoint, along: (f64, f64), max_range: f64) -> f64 {
+        let (gdx, gdy) = self.grid_direction(along);
         self.cast(view.gx, view.gy, gdx, gdy, max_range)
     }
 
     /// [`OccupancyGrid::free_by_its_ends`] from `view`.
     #[inline]
-    pub fn free_from(&self, view: &Viewpoint, (dx, dy): (f64, f64), length: f64) -> bool {
+    pub fn free_from(&self, view: &Viewpoint, along: (f64, f64), length: f64) -> bool {
         let start = f64::from(view.clearance);
         if start < 2.0 {
             return false;
         }
-        let gdx = dx * self.cos_yaw + dy * self.sin_yaw;
-        let gdy = -dx * self.sin_yaw + dy * self.cos_yaw;
+        let (gdx, gdy) = self.grid_direction(along);
         let cells = length / self.resolution;
         let (ex, ey) = (view.gx + gdx * cells, view.gy + gdy * cells);
         let end = self
