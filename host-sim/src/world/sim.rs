@@ -353,7 +353,9 @@ pub fn scan_cut(beam: usize) -> Option<f64> {
     SCAN_CUT.get(beam).copied()
 }
 
-static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
+/// Every sample [`scan_cut`] keeps its beams' points away from: every lattice trajectory's, and
+/// every deformed trajectory's of a perturbation.
+fn cut_samples() -> Vec<[f32; 2]> {
     let actions = || (0..MAX_ACTIONS).filter_map(ActionIndex::new);
     let mut points: Vec<[f32; 2]> = Vec::new();
     for a in actions() {
@@ -362,21 +364,39 @@ static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
             points.extend_from_slice(DeformedTrajectory::between(a, b, PUSH).samples());
         }
     }
+    points
+}
+
+static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
+    let points = cut_samples();
     let radius = OBSTACLE_CLIP as f64 + CUT_MARGIN;
+    let points: Vec<(f64, f64, f64)> = points
+        .iter()
+        .map(|p| {
+            let (x, y) = (p[0] as f64, p[1] as f64);
+            (x, y, x * x + y * y)
+        })
+        .collect();
     std::array::from_fn(|j| {
         let (c, s) = beam_direction(j).unwrap_or((1.0, 0.0));
         let (c, s) = (c as f64, s as f64);
         // The farthest range at which the beam's point is within `radius` of a point: the far
-        // end of the chord of the disc around the point.
-        let far = points
-            .iter()
-            .filter_map(|p| {
-                let (x, y) = (p[0] as f64, p[1] as f64);
-                let t = c * x + s * y;
-                let q = t * t - (x * x + y * y) + radius * radius;
-                (q > 0.0).then(|| t + q.sqrt())
-            })
-            .fold(0.0, f64::max);
+        // end of the chord of the disc around the point, `t + √q`. `√q` is at most `radius`
+        // (q = radius² − the squared distance of the point from the beam's line, to the rounding
+        // of a direction of f32 components, far below a millimetre): a point whose `t + radius`
+        // falls a millimetre short of the farthest so far cannot raise it, and its root is not
+        // taken. The maximum is the one over every point.
+        let mut far = 0.0;
+        for &(x, y, n2) in &points {
+            let t = c * x + s * y;
+            if t + radius + 1e-3 < far {
+                continue;
+            }
+            let q = t * t - n2 + radius * radius;
+            if q > 0.0 {
+                far = f64::max(far, t + q.sqrt());
+            }
+        }
         (far + 0.01).min(SCAN_MAX_RANGE as f64)
     })
 });
@@ -624,6 +644,29 @@ mod tests {
             })
             .collect();
         format!("{evaluation:?} {deformed:?}")
+    }
+
+    #[test]
+    fn scan_cut_is_the_farthest_chord_end_over_every_sample() {
+        // The definition, every sample's root taken: the table skips the samples that cannot
+        // raise the maximum, and must give the same bits.
+        let points = cut_samples();
+        let radius = OBSTACLE_CLIP as f64 + CUT_MARGIN;
+        for j in 0..SCAN_BEAMS {
+            let (c, s) = beam_direction(j).unwrap();
+            let (c, s) = (c as f64, s as f64);
+            let far = points
+                .iter()
+                .filter_map(|p| {
+                    let (x, y) = (p[0] as f64, p[1] as f64);
+                    let t = c * x + s * y;
+                    let q = t * t - (x * x + y * y) + radius * radius;
+                    (q > 0.0).then(|| t + q.sqrt())
+                })
+                .fold(0.0, f64::max);
+            let want = (far + 0.01).min(SCAN_MAX_RANGE as f64);
+            assert_eq!(scan_cut(j).unwrap().to_bits(), want.to_bits(), "beam {j}");
+        }
     }
 
     #[test]
