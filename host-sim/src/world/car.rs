@@ -91,7 +91,16 @@ impl Pose {
 /// features a build unifies).
 #[inline]
 pub fn rotation(angle: f64) -> UnitComplex<f64> {
-    UnitComplex::from_cos_sin_unchecked(libm::cos(angle), libm::sin(angle))
+    let (sin, cos) = sin_cos(angle);
+    UnitComplex::from_cos_sin_unchecked(cos, sin)
+}
+
+/// `(libm::sin(angle), libm::cos(angle))`, bit for bit, with one argument reduction for both:
+/// libm's `sincos` runs the same kernels on the same reduced argument as its `sin` and `cos`
+/// (`sin_cos_is_libms_sin_and_cos` checks it).
+#[inline]
+pub fn sin_cos(angle: f64) -> (f64, f64) {
+    libm::sincos(angle)
 }
 
 /// Wraps an angle into `[−π, π]`.
@@ -279,7 +288,7 @@ impl CarState {
             rotation
         } else {
             let th2 = th + k * s;
-            let (cos2, sin2) = (libm::cos(th2), libm::sin(th2));
+            let (sin2, cos2) = sin_cos(th2);
             self.pose.x += (sin2 - sin_th) / k;
             self.pose.y -= (cos2 - cos_th) / k;
             self.pose.theta = wrap_angle(th2);
@@ -418,6 +427,60 @@ mod tests {
     use super::*;
     use firmware_core::ActionIndex;
     use firmware_core::lattice::trajectory;
+
+    #[test]
+    fn sin_cos_is_libms_sin_and_cos() {
+        // Every branch of libm's reduction: tiny, below π/4, medium and huge arguments, both
+        // signs, the binade edges of its thresholds, the infinities and NaN, and many random
+        // bit patterns.
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MAX,
+            std::f64::consts::FRAC_PI_4,
+            std::f64::consts::PI,
+            1e22,
+        ];
+        for high in [
+            0x3e46a09e_u64,
+            0x3e500000,
+            0x3fe921fb,
+            0x4002d97c,
+            0x400f6a7a,
+            0x413921fb,
+        ] {
+            for low in [0u64, 1, 0x7fff_ffff, 0xffff_ffff] {
+                for delta in [-1i64, 0, 1] {
+                    let bits = ((high << 32) | low).wrapping_add_signed(delta);
+                    xs.push(f64::from_bits(bits));
+                }
+            }
+        }
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        for i in 0..400_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            xs.push(if i % 2 == 0 {
+                f64::from_bits(state)
+            } else {
+                // Headings, as the car has them.
+                ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 20.0
+            });
+        }
+        for x in xs {
+            for x in [x, -x] {
+                let (s, c) = sin_cos(x);
+                assert_eq!(s.to_bits(), libm::sin(x).to_bits(), "sin {x:e}");
+                assert_eq!(c.to_bits(), libm::cos(x).to_bits(), "cos {x:e}");
+            }
+        }
+    }
 
     #[test]
     fn step_turned_returns_the_new_headings_rotation_bit_for_bit() {
