@@ -174,6 +174,8 @@ impl CarParams {
             ny: libm::ceil(self.width / step) as usize,
             near: (reach / map.resolution()).floor() + 2.0,
             near_quarter: (quarter / map.resolution()).floor() + 2.0,
+            reach,
+            resolution: map.resolution(),
         }
     }
 }
@@ -190,9 +192,42 @@ pub struct Footprint {
     near: f64,
     /// The same for a quarter's centre and its samples.
     near_quarter: f64,
+    /// Half the footprint's diagonal (m), and the map's resolution.
+    reach: f64,
+    resolution: f64,
 }
 
 impl Footprint {
+    /// Whether the footprint touches no blocked cell at any pose within `travel` metres of `pose`
+    /// (rotation given, `pose.rotation()`) as its centre moves: every sample of such a pose lies
+    /// within half the diagonal plus `travel` of the centre at `pose`, so, as for one pose, a
+    /// centre whose clearance exceeds ⌊(half-diagonal + travel) / resolution⌋ + 2 cells shows
+    /// them all clear. `true` means [`Footprint::hits`] is `false` at every such pose; `false`
+    /// settles nothing.
+    pub fn clear_within(
+        &self,
+        map: &OccupancyGrid,
+        pose: Pose,
+        rotation: UnitComplex<f64>,
+        travel: f64,
+    ) -> bool {
+        let near = ((self.reach + travel) / self.resolution).floor() + 2.0;
+        let centre = pose.isometry_turned(rotation) * Point2::new(self.car.center_offset, 0.0);
+        map.clearance_cells(centre.x, centre.y) as f64 > near
+    }
+
+    /// How far (m) the footprint's centre can move from where it is in `steps` physics steps of
+    /// `dt` at speeds of at most `speed` (m/s, the larger of the car's and the command's: a step
+    /// moves the speed towards the command), with a millimetre for rounding: each step moves the
+    /// rear axle along an arc of `|v|·dt` (its chord is shorter) and turns the heading by
+    /// `|k|·|v|·dt` with `|k| ≤ tan(max_steering) / wheelbase`, which moves the centre, ahead of
+    /// the axle by the centre offset, by at most the offset times that angle.
+    pub fn travel(&self, steps: u32, dt: f64, speed: f64) -> f64 {
+        let car = &self.car;
+        let turn = libm::tan(car.max_steering) / car.wheelbase;
+        f64::from(steps) * dt * libm::fabs(speed) * (1.0 + car.center_offset.abs() * turn) + 1e-3
+    }
+
     /// [`CarParams::footprint_hits`] with the heading's rotation given (`pose.rotation()`), on a
     /// map of the resolution this was made for.
     pub fn hits(&self, map: &OccupancyGrid, pose: Pose, rotation: UnitComplex<f64>) -> bool {
@@ -202,6 +237,7 @@ impl Footprint {
             ny,
             near,
             near_quarter,
+            ..
         } = *self;
         let iso = pose.isometry_turned(rotation);
         let centre = iso * Point2::new(car.center_offset, 0.0);
@@ -427,6 +463,71 @@ mod tests {
     use super::*;
     use firmware_core::ActionIndex;
     use firmware_core::lattice::trajectory;
+
+    #[test]
+    fn a_footprint_clear_within_its_travel_hits_nothing_for_a_tick() {
+        // Ticks of ten physics steps from random free poses of every built-in map, with random
+        // speeds (up to 4 m/s, twice the lattice's fastest) and random trajectories: when the
+        // start says the tick's travel is clear, no step's footprint may hit.
+        use crate::world::registry::{SCENARIOS, load_scenario_unchecked};
+        use firmware_core::{ActionIndex, MAX_ACTIONS};
+        let p = CarParams::MUSHR;
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut uniform = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut clear, mut unclear, mut hit) = (0u32, 0u32, 0u32);
+        for s in SCENARIOS {
+            let map = load_scenario_unchecked(s.name).unwrap().map;
+            let footprint = p.footprint_on(&map);
+            let (w, h, o) = (
+                map.width() as f64 * map.resolution(),
+                map.height() as f64 * map.resolution(),
+                map.origin(),
+            );
+            for _ in 0..4000 {
+                let pose = Pose {
+                    x: o[0] + uniform() * w,
+                    y: o[1] + uniform() * h,
+                    theta: (uniform() - 0.5) * 7.0,
+                };
+                if map.is_blocked(pose.x, pose.y) {
+                    continue;
+                }
+                let action = ActionIndex::new((uniform() * MAX_ACTIONS as f64) as usize).unwrap();
+                let mut car = CarState {
+                    pose,
+                    speed: uniform() * 4.0,
+                    steering: (uniform() - 0.5) * 2.0 * p.max_steering,
+                };
+                let command = uniform() * 4.0;
+                let tracker = Tracker::new(pose, firmware_core::lattice::trajectory(action));
+                let dt = 0.01;
+                let travel = footprint.travel(10, dt, car.speed.max(command));
+                let is_clear = footprint.clear_within(&map, pose, pose.rotation(), travel);
+                let mut any = false;
+                for _ in 0..10 {
+                    let steer = tracker.steering(car.pose, &p);
+                    car.step(&p, steer, command, dt);
+                    any |= p.footprint_hits(&map, car.pose);
+                }
+                assert!(!(is_clear && any), "{}: {pose:?}", s.name);
+                if is_clear {
+                    clear += 1;
+                } else {
+                    unclear += 1;
+                    hit += u32::from(any);
+                }
+            }
+        }
+        assert!(
+            clear > 2000 && unclear > 2000 && hit > 200,
+            "{clear} {unclear} {hit}"
+        );
+    }
 
     #[test]
     fn sin_cos_is_libms_sin_and_cos() {

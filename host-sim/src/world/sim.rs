@@ -275,12 +275,16 @@ impl Episode {
         let tracker = Tracker::new_turned(self.car.pose, rotation, trajectory(action));
         let footprint = self.params.footprint_on(&self.scenario.map);
         let dt = TICK_SECONDS / PHYSICS_STEPS as f64;
+        // Far enough from every wall for the whole tick: no step's footprint test can hit.
+        let speed = self.car.speed.abs().max(tracker.speed().abs());
+        let travel = footprint.travel(PHYSICS_STEPS, dt, speed);
+        let clear = footprint.clear_within(&self.scenario.map, self.car.pose, rotation, travel);
         for _ in 0..PHYSICS_STEPS {
             let steer = tracker.steering_turned(self.car.pose, rotation, &self.params);
             rotation = self
                 .car
                 .step_turned(&self.params, steer, tracker.speed(), dt, rotation);
-            if footprint.hits(&self.scenario.map, self.car.pose, rotation) {
+            if !clear && footprint.hits(&self.scenario.map, self.car.pose, rotation) {
                 self.reset();
                 return TickResult {
                     reset: Some(ResetReason::Collision),
