@@ -405,6 +405,12 @@ static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
     })
 });
 
+/// How many points along a beam, after the car, [`Episode::observe_near`] reads the clearance of
+/// before it casts the beam ([`OccupancyGrid::free_by_points_from`]).
+///
+/// [`OccupancyGrid::free_by_points_from`]: crate::world::map::OccupancyGrid::free_by_points_from
+const SCAN_FREE_POINTS: u32 = 2;
+
 /// The observation of a car in `scenario` whose projection onto the path is at arc length `s`,
 /// quantized to the protocol's wire steps (`protocol::quantize::quantize`: ranges in
 /// centimetres, lengths in millimetres, the heading in 10⁻⁴ rad), so that the learner and the
@@ -440,7 +446,9 @@ fn observe_within(
         }
         let along = (cos * bc - sin * bs, sin * bc + cos * bs);
         // Free a cell beyond the cut: the cast would reach the cut (no cast needed).
-        if cut < SCAN_MAX_RANGE as f64 && map.free_from(&view, along, cut + map.resolution()) {
+        if cut < SCAN_MAX_RANGE as f64
+            && map.free_by_points_from(&view, along, cut + map.resolution(), SCAN_FREE_POINTS)
+        {
             scan.ranges[j] = SCAN_MAX_RANGE;
             continue;
         }
