@@ -372,37 +372,29 @@ fn cut_samples() -> Vec<[f32; 2]> {
 }
 
 static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
-    let points = cut_samples();
     let radius = OBSTACLE_CLIP as f64 + CUT_MARGIN;
-    let points: Vec<(f64, f64, f64)> = points
-        .iter()
-        .map(|p| {
-            let (x, y) = (p[0] as f64, p[1] as f64);
-            (x, y, x * x + y * y)
-        })
-        .collect();
-    std::array::from_fn(|j| {
+    let directions: [(f64, f64); SCAN_BEAMS] = std::array::from_fn(|j| {
         let (c, s) = beam_direction(j).unwrap_or((1.0, 0.0));
-        let (c, s) = (c as f64, s as f64);
-        // The farthest range at which the beam's point is within `radius` of a point: the far
-        // end of the chord of the disc around the point, `t + √q`. `√q` is at most `radius`
-        // (q = radius² − the squared distance of the point from the beam's line, to the rounding
-        // of a direction of f32 components, far below a millimetre): a point whose `t + radius`
-        // falls a millimetre short of the farthest so far cannot raise it, and its root is not
-        // taken. The maximum is the one over every point.
-        let mut far = 0.0;
-        for &(x, y, n2) in &points {
+        (c as f64, s as f64)
+    });
+    // Per beam, the farthest range at which its point is within `radius` of a sample: the far
+    // end of the chord of the disc around the sample. One pass over the samples (the list is
+    // large), every beam for each; a maximum does not depend on the order it is taken in.
+    let mut far = [0.0f64; SCAN_BEAMS];
+    for p in cut_samples() {
+        let (x, y) = (p[0] as f64, p[1] as f64);
+        let n2 = x * x + y * y;
+        for (f, &(c, s)) in far.iter_mut().zip(&directions) {
             let t = c * x + s * y;
-            if t + radius + 1e-3 < far {
-                continue;
-            }
             let q = t * t - n2 + radius * radius;
-            if q > 0.0 {
-                far = f64::max(far, t + q.sqrt());
-            }
+            // Without a branch (a chord or none for each pair, unpredictably; the compiler
+            // vectorizes this): 0 never raises the maximum, which starts at 0, and no value is
+            // NaN (the root of a negative `q` is not taken) or −0.
+            let end = if q > 0.0 { t + q.sqrt() } else { 0.0 };
+            *f = if end > *f { end } else { *f };
         }
-        (far + 0.01).min(SCAN_MAX_RANGE as f64)
-    })
+    }
+    far.map(|far| (far + 0.01).min(SCAN_MAX_RANGE as f64))
 });
 
 /// How many points along a beam, after the car, [`Episode::observe_near`] reads the clearance of
