@@ -129,6 +129,21 @@ fn range_value(code: u16) -> f32 {
     code as f32 / RANGE_STEPS_PER_METRE
 }
 
+/// `range_value(range_code(r))` without branches, for [`quantize`]'s 64 ranges: a valid range
+/// (`0 ≤ r ≤ SCAN_MAX_RANGE`, which NaN and the infinities are not) rounds half up to its code
+/// (it is not negative), anything else takes the invalid code, and the code becomes its value
+/// as `range_value` makes it. The same bits (`range_step_is_code_then_value` checks the edges and
+/// every range on the wire's centimetre boundaries).
+fn range_step(r: f32) -> f32 {
+    let valid = (0.0..=SCAN_MAX_RANGE).contains(&r);
+    let code = if valid {
+        r * RANGE_STEPS_PER_METRE + 0.5
+    } else {
+        RANGE_INVALID as f32
+    };
+    (code as i32) as f32 / RANGE_STEPS_PER_METRE
+}
+
 /// Millimetres of a signed length within `bound` metres.
 fn mm_code(x: f32, bound: f32) -> i16 {
     if within(x, bound) {
@@ -176,7 +191,7 @@ fn heading_value(code: i16) -> f32 {
 pub fn quantize(obs: &Observation) -> Observation {
     let mut scan = Scan::EMPTY;
     for (q, &r) in scan.ranges.iter_mut().zip(&obs.scan.ranges) {
-        *q = range_value(range_code(r));
+        *q = range_step(r);
     }
     let mut objects = ObjectList::new();
     for o in &obs.objects {
@@ -443,6 +458,51 @@ mod tests {
         }
         for c in 1..=(MAX_OBJECT_RADIUS * MM) as u16 {
             assert_eq!(radius_code(radius_value(c)), c, "radius {c}");
+        }
+    }
+
+    #[test]
+    fn range_step_is_code_then_value() {
+        let same = |r: f32| {
+            assert_eq!(
+                range_step(r).to_bits(),
+                range_value(range_code(r)).to_bits(),
+                "{r:e} ({:#x})",
+                r.to_bits()
+            );
+        };
+        for r in [
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            SCAN_MAX_RANGE,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            f32::MAX,
+            f32::MIN,
+            1e10,
+            -1e10,
+        ] {
+            same(r);
+        }
+        // Every half centimetre up to 10.5 m (the rounding boundaries and the steps), each with
+        // its neighbours four representable numbers either way.
+        for k in 0..=2100u32 {
+            let r = k as f32 * 0.005;
+            for d in -4i32..=4 {
+                same(f32::from_bits(r.to_bits().wrapping_add_signed(d)));
+                same(-f32::from_bits(r.to_bits().wrapping_add_signed(d)));
+            }
+        }
+        // And a dense sweep of every bit pattern from 0 to 16 m, one in 61.
+        let mut bits = 0u32;
+        while bits <= 16.0f32.to_bits() {
+            same(f32::from_bits(bits));
+            same(f32::from_bits(bits | 0x8000_0000));
+            bits += 61;
         }
     }
 
