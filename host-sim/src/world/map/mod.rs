@@ -484,7 +484,7 @@ impl OccupancyGrid {
         // Free a cell beyond the reach: the cast would end at the reach (no cast needed). One
         // viewpoint for both.
         let view = self.viewpoint(a.0, a.1);
-        self.free_from(&view, along, reach + self.resolution)
+        self.free_by_points_from(&view, along, reach + self.resolution, 2)
             || self.raycast_from(&view, along, reach) >= reach
     }
 
