@@ -9,7 +9,7 @@
 //!   [`Episode::observe_near`] instead: each beam cast only to its [`scan_cut`] (0.34 m sideways
 //!   to 1.71 m ahead), beyond which no evaluation can see a scan point; the evaluation is the
 //!   same, bit for bit, and most beams need no cast at all (the clearance around the car, or at
-//!   both ends of the beam, shows them free).
+//!   the beam's start, middle and end, shows them free).
 //! * **Semantic detections**: every object whose nearest point is within [`SENSOR_RANGE`] (5 m)
 //!   and in line of sight (the segment from the sensor to that point crosses no blocked cell
 //!   before its last [`LOS_SLACK_CELLS`] cells, so objects drawn as obstacles, a stairwell's
@@ -54,7 +54,7 @@ use firmware_core::{ActionIndex, MAX_ACTIONS};
 
 use nalgebra::Isometry2;
 
-use crate::world::car::{CarParams, CarState, Pose, Tracker, wrap_angle};
+use crate::world::car::{CarParams, CarState, Footprint, Pose, Tracker, wrap_angle};
 use crate::world::scenario::Scenario;
 
 /// Range of the semantic detector (m).
@@ -138,6 +138,8 @@ pub struct Episode {
     /// Where this episode starts and every reset returns (the scenario's start unless jittered).
     start: Pose,
     params: CarParams,
+    /// The footprint test's constants for `params` on the scenario's map.
+    footprint: Footprint,
     car: CarState,
     /// Arc length of the car's projection onto the path.
     s: f64,
@@ -159,11 +161,14 @@ impl Episode {
     /// The car at `start` instead of the scenario's start; every reset returns there. The caller
     /// checks that the pose is free (see [`crate::teach::experiment::StartJitter`]).
     pub fn starting_at(scenario: Arc<Scenario>, start: Pose) -> Self {
+        let params = CarParams::MUSHR;
+        let footprint = params.footprint_on(&scenario.map);
         let mut e = Self {
             car: CarState::at(start),
             start,
             scenario,
-            params: CarParams::MUSHR,
+            params,
+            footprint,
             s: 0.0,
             progress: 0.0,
             best: 0.0,
@@ -273,7 +278,7 @@ impl Episode {
         // The heading's cosine and sine, once per pose (each use would compute the same bits).
         let mut rotation = self.car.pose.rotation();
         let tracker = Tracker::new_turned(self.car.pose, rotation, trajectory(action));
-        let footprint = self.params.footprint_on(&self.scenario.map);
+        let footprint = self.footprint;
         let dt = TICK_SECONDS / PHYSICS_STEPS as f64;
         // Far enough from every wall for the whole tick: no step's footprint test can hit.
         let speed = self.car.speed.abs().max(tracker.speed().abs());
