@@ -423,19 +423,8 @@ impl Tracker {
         let at = pose.position();
         let mut best = (0.0f64, f64::INFINITY);
         for g in &self.segments {
-            // `(dot / len2).clamp(0, 1)`, dividing only when the projection falls inside the
-            // segment (a segment or two of the ten): the quotient of a dot product at most 0 clamps
-            // to 0 (−0 for a dot of −0, which moves no bit of the distance or the arc length
-            // below) and one of at least `len2` to 1 (rounding is monotone).
             let t = if g.len2 > 0.0 {
-                let dot = (at - g.a).dot(&g.d);
-                if dot <= 0.0 {
-                    0.0
-                } else if dot >= g.len2 {
-                    1.0
-                } else {
-                    dot / g.len2
-                }
+                ((at - g.a).dot(&g.d) / g.len2).clamp(0.0, 1.0)
             } else {
                 0.0
             };
@@ -476,85 +465,6 @@ mod tests {
     use super::*;
     use firmware_core::ActionIndex;
     use firmware_core::lattice::trajectory;
-
-    #[test]
-    fn steering_is_pure_pursuit_with_every_projection_divided() {
-        // The steering against the projection that divides for every segment and clamps, bit
-        // for bit: random trajectories fixed at random poses, the car anywhere near them.
-        fn reference(tr: &Tracker, pose: Pose, p: &CarParams) -> f64 {
-            let at = pose.position();
-            let mut best = (0.0f64, f64::INFINITY);
-            for g in &tr.segments {
-                let t = if g.len2 > 0.0 {
-                    ((at - g.a).dot(&g.d) / g.len2).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                let d2 = (at - (g.a + g.d * t)).norm_squared();
-                if d2 < best.1 {
-                    best = (g.s0 + t * g.len, d2);
-                }
-            }
-            // The rest as `steering_turned` has it, from the projection's arc length.
-            let target_s = best.0 + Tracker::LOOKAHEAD;
-            let goal = if target_s >= tr.total {
-                tr.last + tr.end_rotation * Vector2::new(target_s - tr.total, 0.0)
-            } else {
-                tr.segments
-                    .iter()
-                    .find(|g| g.s0 + g.len >= target_s)
-                    .map_or(tr.last, |g| {
-                        let t = if g.len > 0.0 {
-                            (target_s - g.s0) / g.len
-                        } else {
-                            0.0
-                        };
-                        g.a + g.d * t
-                    })
-            };
-            let local = pose.isometry().inverse_transform_point(&goal);
-            let d2 = local.coords.norm_squared();
-            if d2 < 1e-12 {
-                return 0.0;
-            }
-            libm::atan(2.0 * local.y / d2 * p.wheelbase)
-        }
-        let p = CarParams::MUSHR;
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut uniform = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
-        for _ in 0..20_000 {
-            let origin = Pose {
-                x: (uniform() - 0.5) * 20.0,
-                y: (uniform() - 0.5) * 20.0,
-                theta: (uniform() - 0.5) * 7.0,
-            };
-            let action = ActionIndex::new((uniform() * 64.0) as usize).unwrap();
-            let tr = Tracker::new(origin, trajectory(action));
-            for _ in 0..5 {
-                // Along the trajectory, off it, and at its segments' ends exactly.
-                let pose = if uniform() < 0.2 {
-                    let g = tr.segments[(uniform() * SAMPLES as f64) as usize];
-                    Pose::at(g.a, origin.theta)
-                } else {
-                    Pose {
-                        x: origin.x + (uniform() - 0.3) * 3.0,
-                        y: origin.y + (uniform() - 0.5) * 3.0,
-                        theta: origin.theta + (uniform() - 0.5),
-                    }
-                };
-                assert_eq!(
-                    tr.steering(pose, &p).to_bits(),
-                    reference(&tr, pose, &p).to_bits(),
-                    "{pose:?} on {action:?}"
-                );
-            }
-        }
-    }
 
     #[test]
     fn a_footprint_clear_within_its_travel_hits_nothing_for_a_tick() {
