@@ -405,6 +405,11 @@ impl Evaluator {
                 collided |= cluster.trajectories;
                 continue;
             }
+            if (m - spread) * (1.0 - 1.0e-5) - REACH_MARGIN > OBSTACLE_CLIP {
+                // Every point is at least `m − s` from every member: beyond the clip, so every
+                // member keeps the clip and collides with nothing.
+                continue;
+            }
             // Generous against rounding: a relative 1e-5 and the 1 mm margin.
             let limit = clipped((m + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN, reach);
             let limit2 = limit * limit;
