@@ -600,8 +600,8 @@ impl Evaluator {
     /// nearest of its class to them. The same values, bit for bit, as the general loop: where the
     /// centre's distance and the spread decide a test for every member at once (each with a 1 mm
     /// margin, far above the rounding of these distances), a loop without it runs: every member
-    /// outside the disc (no test of the root's sign nor of the reach: a member beyond the reach
-    /// is beyond the clip and reads the clip either way), and within the clip as well (no clip),
+    /// outside the disc (no test of the root's sign; a member beyond the reach reads the clip
+    /// without a root), and within the clip as well (no clip nor reach),
     /// or every member inside the disc (0). `centre` is the distance from the cluster's centre to
     /// the object's.
     fn one_object(&mut self, cluster: &Cluster, o: &Disc, centre: f32) {
@@ -629,11 +629,17 @@ impl Evaluator {
         }
         if centre - spread > radius {
             // Outside the disc by more than a millimetre, but some member may be beyond the
-            // clip: no test of the reach (a member beyond it is beyond the clip too, and reads
-            // the clip either way) nor of the root's sign.
+            // clip: no test of the root's sign; a member beyond the reach reads the clip without
+            // a root (a compare costs less than the root it saves).
             for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
                 let (dx, dy) = (sx - ox, sy - oy);
-                *c = clipped(newton_sqrt(dx * dx + dy * dy) - radius, SEMANTIC_CLIP);
+                let d2 = dx * dx + dy * dy;
+                // Beyond the reach is beyond the clip by a millimetre: the clip, without a root.
+                *c = if d2 < reach2 {
+                    clipped(newton_sqrt(d2) - radius, SEMANTIC_CLIP)
+                } else {
+                    SEMANTIC_CLIP
+                };
             }
             return;
         }
