@@ -268,21 +268,32 @@ impl Evaluator {
     pub(crate) fn clearances(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> u64 {
         let obstacles = self.obstacles(&obs.scan.ranges);
         let rows = out.rows_mut();
-        let f = Feature::Obstacles.index();
         let allowed = match obstacles {
-            Obstacles::Clear => {
-                // Every clearance is the clip: every sum is ten clips.
-                for row in rows.iter_mut() {
-                    row[f] = SAMPLES as f32;
-                }
-                u64::MAX
-            }
-            Obstacles::Measured { allowed, touched } => {
-                for_each_action(!allowed, |a| rows[a] = [0.0; FEATURE_COUNT]);
-                self.sum_rows(allowed, touched, f, OBSTACLE_CLIP, rows);
-                allowed
-            }
+            Obstacles::Clear => u64::MAX,
+            Obstacles::Measured { allowed, .. } => allowed,
         };
+        for_each_action(!allowed, |a| rows[a] = [0.0; FEATURE_COUNT]);
+        // Every clearance feature of every allowed row starts as ten clips, in one pass; the
+        // sums below overwrite those of the trajectories with a sample nearer than a clip.
+        const CLIPS: f32 = SAMPLES as f32;
+        const _: () = assert!(
+            Feature::Obstacles.index() == 0
+                && Feature::Door.index() == 1
+                && Feature::Stairs.index() == 2
+                && Feature::Chair.index() == 3,
+            "the clearance features are the first four"
+        );
+        for_each_action(allowed, |a| {
+            let row = &mut rows[a];
+            row[0] = CLIPS;
+            row[1] = CLIPS;
+            row[2] = CLIPS;
+            row[3] = CLIPS;
+        });
+        if let Obstacles::Measured { allowed, touched } = obstacles {
+            let f = Feature::Obstacles.index();
+            self.sum_rows(allowed, touched, f, OBSTACLE_CLIP, rows);
+        }
         if allowed != 0 {
             for class in SemanticClass::ALL {
                 self.semantic(&obs, class, allowed, rows);
@@ -464,8 +475,9 @@ impl Evaluator {
     /// to ten samples and divided by `clip`, into feature `f`: the shared heads once, then each
     /// trajectory's tail, in order along it (the same sum, bit for bit, as one pass: padding
     /// adds the clearance of the unused slot `PAD_SAMPLE`, which stays 0). A trajectory not in
-    /// `touched` has the clip at every sample: its sum is exactly ten clips, and it reads
-    /// [`SAMPLES`] without the sum (a sum of clips, a power of two, is exact).
+    /// `touched` has the clip at every sample: its sum is exactly ten clips, and it keeps the
+    /// [`SAMPLES`] that [`Evaluator::clearances`] wrote (a sum of clips, a power of two, is
+    /// exact).
     fn sum_rows(
         &self,
         allowed: u64,
@@ -474,7 +486,6 @@ impl Evaluator {
         clip: f32,
         rows: &mut [Features; MAX_ACTIONS],
     ) {
-        for_each_action(allowed & !touched, |a| rows[a][f] = SAMPLES as f32);
         let todo = allowed & touched;
         if todo == 0 {
             return;
@@ -532,8 +543,7 @@ impl Evaluator {
         }
         if n == 0 {
             // No object of the class, or none within reach: every clearance is the clip, and
-            // every sum ten clips (an absent class reads the same).
-            for_each_action(allowed, |a| rows[a][f] = SAMPLES as f32);
+            // every sum ten clips (an absent class reads the same), as the rows hold already.
             return;
         }
         let objects = &objects[..n];
