@@ -256,40 +256,28 @@ impl Evaluator {
     ///
     /// The observation was validated once, by [`Observation::check`].
     pub fn evaluate(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> ActionMask {
-        let allowed = self.clearances(obs, out);
-        path_features(obs, allowed, out)
+        let frame = PathFrame::new(&obs.reference);
+        ActionMask::from_bits(self.clearances(obs, &frame, out))
     }
 
-    /// The part of [`Evaluator::evaluate`] that needs the scratch: the collisions and the
-    /// clearance features of the trajectories that do not collide (the rows of the others
-    /// zeroed), one bit per action that does not collide. [`path_features`] completes the
-    /// rows: apart, so that a caller with a fresh evaluator on its stack (the agent) holds the
-    /// scratch only here, not during the path's `sincosf` too (768 bytes of frame on the car).
-    pub(crate) fn clearances(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> u64 {
+    /// [`Evaluator::evaluate`] with the path's frame made already: the collisions and every
+    /// feature of the trajectories that do not collide (the rows of the others zeroed), one bit
+    /// per action that does not collide. The frame is made apart, so that a caller with a fresh
+    /// evaluator on its stack (the agent) holds the scratch only here, not during the path's
+    /// `sincosf` too (768 bytes of frame on the car).
+    pub(crate) fn clearances(
+        &mut self,
+        obs: ValidObservation<'_>,
+        frame: &PathFrame,
+        out: &mut FeatureTable,
+    ) -> u64 {
         let obstacles = self.obstacles(&obs.scan.ranges);
         let rows = out.rows_mut();
         let allowed = match obstacles {
             Obstacles::Clear => u64::MAX,
             Obstacles::Measured { allowed, .. } => allowed,
         };
-        for_each_action(!allowed, |a| rows[a] = [0.0; FEATURE_COUNT]);
-        // Every clearance feature of every allowed row starts as ten clips, in one pass; the
-        // sums below overwrite those of the trajectories with a sample nearer than a clip.
-        const CLIPS: f32 = SAMPLES as f32;
-        const _: () = assert!(
-            Feature::Obstacles.index() == 0
-                && Feature::Door.index() == 1
-                && Feature::Stairs.index() == 2
-                && Feature::Chair.index() == 3,
-            "the clearance features are the first four"
-        );
-        for_each_action(allowed, |a| {
-            let row = &mut rows[a];
-            row[0] = CLIPS;
-            row[1] = CLIPS;
-            row[2] = CLIPS;
-            row[3] = CLIPS;
-        });
+        start_rows(allowed, frame, rows);
         if let Obstacles::Measured { allowed, touched } = obstacles {
             let f = Feature::Obstacles.index();
             self.sum_rows(allowed, touched, f, OBSTACLE_CLIP, rows);
@@ -673,6 +661,31 @@ impl Evaluator {
     }
 }
 
+/// The rows before the sums: zeros for the trajectories that collide; for the others ten clips
+/// in every clearance feature, in one pass with the path and side features (the sums then
+/// overwrite the clearances of the trajectories with a sample nearer than a clip). Not inlined:
+/// apart from the passes over the clusters, it keeps its own registers.
+#[inline(never)]
+fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS]) {
+    for_each_action(!allowed, |a| rows[a] = [0.0; FEATURE_COUNT]);
+    const CLIPS: f32 = SAMPLES as f32;
+    const _: () = assert!(
+        Feature::Obstacles.index() == 0
+            && Feature::Door.index() == 1
+            && Feature::Stairs.index() == 2
+            && Feature::Chair.index() == 3,
+        "the clearance features are the first four"
+    );
+    for_each_action(allowed, |a| {
+        let row = &mut rows[a];
+        row[0] = CLIPS;
+        row[1] = CLIPS;
+        row[2] = CLIPS;
+        row[3] = CLIPS;
+        [row[Feature::Path.index()], row[Feature::Right.index()]] = frame.path_and_side(a);
+    });
+}
+
 /// Sets the clearance of every sample to `value` (the unused slots above stay 0).
 #[inline]
 fn fill(clearance: &mut [f32; SCRATCH], value: f32) {
@@ -841,40 +854,39 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     out
 }
 
-/// Completes what [`Evaluator::clearances`] wrote into `out` (the trajectories that do not
-/// collide, `allowed`): the path and side features of those trajectories. Returns the mask.
-#[inline]
-pub(crate) fn path_features(
-    obs: ValidObservation<'_>,
-    allowed: u64,
-    out: &mut FeatureTable,
-) -> ActionMask {
-    if allowed != 0 {
-        path_and_side(&obs, allowed, out.rows_mut());
-    }
-    ActionMask::from_bits(allowed)
+/// The path reference's frame, for the path and side features: made once per observation
+/// (one `sincosf`), before the evaluator's scratch is in use.
+pub(crate) struct PathFrame {
+    reference: Isometry2<f32>,
 }
 
-/// Path error and lateral offset of every allowed trajectory's end: the end in the frame of the
-/// path reference (`along`, `cross`), and the end's `y`.
-fn path_and_side(obs: &Observation, allowed: u64, rows: &mut [Features; MAX_ACTIONS]) {
-    let p = &obs.reference;
-    // Cosine and sine from `libm`: the same bits on the host and the car. One `sincosf` is the
-    // same bits as `sinf` and `cosf` apart (every heading in [-π, π] checked exhaustively) and
-    // reduces the angle once.
-    let (sin, cos) = libm::sincosf(p.heading);
-    let reference = Isometry2::from_parts(
-        Translation2::new(p.x, p.y),
-        UnitComplex::from_cos_sin_unchecked(cos, sin),
-    );
-    for_each_action(allowed, |a| {
-        let [x, y] = END_POINTS[a];
-        let row = &mut rows[a];
-        let local = reference.inverse_transform_point(&Point2::new(x, y));
+impl PathFrame {
+    /// The frame of `p`. Cosine and sine from `libm`: the same bits on the host and the car. One
+    /// `sincosf` is the same bits as `sinf` and `cosf` apart (every heading in [-π, π] checked
+    /// exhaustively) and reduces the angle once.
+    #[inline]
+    pub(crate) fn new(p: &PathReference) -> Self {
+        let (sin, cos) = libm::sincosf(p.heading);
+        Self {
+            reference: Isometry2::from_parts(
+                Translation2::new(p.x, p.y),
+                UnitComplex::from_cos_sin_unchecked(cos, sin),
+            ),
+        }
+    }
+
+    /// Path error and lateral offset of trajectory `a`'s end: the end in the frame of the path
+    /// reference (`along`, `cross`), and the end's `y`.
+    #[inline(always)]
+    fn path_and_side(&self, a: usize) -> [f32; 2] {
+        let [x, y] = END_POINTS[a & (MAX_ACTIONS - 1)];
+        let local = self.reference.inverse_transform_point(&Point2::new(x, y));
         let error = libm::fabsf(local.x) + libm::fabsf(local.y);
-        row[Feature::Path.index()] = if error < PATH_CLIP { error } else { PATH_CLIP };
-        row[Feature::Right.index()] = -RIGHT_SCALE * y;
-    });
+        [
+            if error < PATH_CLIP { error } else { PATH_CLIP },
+            -RIGHT_SCALE * y,
+        ]
+    }
 }
 
 /// The directions of the scan's beams, `(cos, sin)` of [`beam_bearing`](crate::observation::beam_bearing),
