@@ -547,11 +547,16 @@ impl Evaluator {
             // The objects within reach of some member of the cluster.
             let [cx, cy] = cluster.centre;
             let mut near = 0u32;
+            // The squared distance from the centre to the last object within reach: the only
+            // one's, when one alone is (its root is the centre's distance below).
+            let mut last2 = 0.0;
             for (k, o) in objects.iter().enumerate() {
                 let (dx, dy) = (cx - o.x, cy - o.y);
                 let limit = o.reach + cluster.spread;
-                if dx * dx + dy * dy < limit * limit {
+                let d2 = dx * dx + dy * dy;
+                if d2 < limit * limit {
                     near |= 1 << k;
+                    last2 = d2;
                 }
             }
             if near == 0 {
@@ -560,9 +565,7 @@ impl Evaluator {
             touched |= cluster.trajectories;
             let centre;
             (near, centre) = if near & (near - 1) == 0 {
-                let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
-                let (dx, dy) = (cx - o.x, cy - o.y);
-                (near, sqrt(dx * dx + dy * dy))
+                (near, sqrt(last2))
             } else {
                 dominant(objects, near, cluster)
             };
