@@ -535,12 +535,13 @@ impl Evaluator {
             return;
         }
         let objects = &objects[..n];
-        fill(&mut self.clearance, SEMANTIC_CLIP);
         let mut touched = 0u64;
         for cluster in &CLUSTERS {
-            // A cluster no allowed trajectory uses is skipped; in the others every member is
-            // measured (a member only colliding trajectories use is written and never read:
-            // measuring it costs less than testing it).
+            // A cluster no allowed trajectory uses is skipped (the sums read no member of it);
+            // in the others every member is written: the clip, or measured (a member only
+            // colliding trajectories use is written and never read: measuring it costs less than
+            // testing it). So every sample an allowed trajectory has is written, without a fill
+            // of every sample.
             if cluster.trajectories & allowed == 0 {
                 continue;
             }
@@ -560,6 +561,13 @@ impl Evaluator {
                 }
             }
             if near == 0 {
+                let start = usize::from(cluster.samples[0]);
+                let end = usize::from(cluster.samples[1]);
+                if let Some(clearance) = self.clearance.get_mut(start..end) {
+                    for c in clearance {
+                        *c = SEMANTIC_CLIP;
+                    }
+                }
                 continue;
             }
             touched |= cluster.trajectories;
