@@ -60,11 +60,14 @@
 //!    from the centre is nobody's nearest: the members measure only the candidates within
 //!    `m + 2s` (the near set), usually one to three;
 //! 4. clusters are visited farthest first: a sample's nearest distance decides its collision,
-//!    and the samples whose trajectories all collide already are skipped; then the semantic
-//!    features run over the clusters some trajectory that does not collide uses (every member
-//!    of such a cluster: measuring a member that no such trajectory uses costs less than testing
-//!    it), and the sums over the trajectories that do not collide only; a trajectory none of
-//!    whose samples came within a clip reads ten clips without a sum. Semantic objects are
+//!    and the samples whose trajectories all collide already are skipped, and so are the
+//!    members of a cluster whose centre's nearest candidate is beyond the clip by more than the
+//!    spread; then the semantic features run over the clusters some trajectory that does not
+//!    collide uses (every member of such a cluster: measuring a member that no such trajectory
+//!    uses costs less than testing it; a cluster near no object writes the clip, so no sample is
+//!    filled beforehand), and the sums over the trajectories that do not collide only; every
+//!    clearance feature of an allowed row starts as ten clips, in one pass with the path and
+//!    side features, and only a trajectory with a sample within a clip takes a sum. Semantic objects are
 //!    pruned per cluster the same way (reach, and an object that is farther than another for
 //!    every member), and where the centre's distance settles a test for every member at once
 //!    (outside the disc, within the clip, inside the disc), a loop without it runs.
@@ -851,14 +854,14 @@ const SHORTER: usize = (RANGE_BINS + 1).next_power_of_two();
 /// ```
 pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     let p = reference;
-    // `sincosf`, not `sinf` and `cosf`: those two then keep a single caller, `path_and_side`,
+    // `sincosf`, not `sinf` and `cosf`: those two then keep a single caller, `PathFrame::new`,
     // and stay inlined in the tick's `act` (calling them out of line from there cost 440
     // instructions a tick on the Cortex-M4, measured). Host and car both reach this function,
     // so they compare the same numbers whatever the last bit of the heading's sine.
     let (s, c) = libm::sincosf(p.heading);
     let mut out = [0.0f32; MAX_ACTIONS];
     for (d, &[x, y]) in out.iter_mut().zip(END_POINTS.iter()) {
-        // The cross-track part of the end in the reference's frame (as `path_and_side`'s
+        // The cross-track part of the end in the reference's frame (as `PathFrame::path_and_side`'s
         // `local.y`), written out with `sincosf`.
         let dx = x - p.x;
         let dy = y - p.y;
