@@ -28,7 +28,7 @@ use core::fmt;
 
 use crate::action::{ActionIndex, ActionMask};
 use crate::error::LearnError;
-use crate::evaluator::{self, Evaluation, Evaluator};
+use crate::evaluator::{Evaluation, Evaluator, PathFrame};
 use crate::feature::FeatureTable;
 use crate::feedback::{Feedback, Round, SpanFeedback};
 use crate::learner::{Learner, OnlineLearner, Outcome};
@@ -153,8 +153,8 @@ impl Agent {
     pub fn act_checked(&mut self, tick: u32, obs: ValidObservation<'_>) -> Decision {
         let slot = self.slot_for(tick);
         let features = &mut self.history[slot].features;
-        let allowed = clearances(obs, features);
-        let allowed = evaluator::path_features(obs, allowed, features);
+        let frame = PathFrame::new(&obs.reference);
+        let allowed = ActionMask::from_bits(clearances(obs, &frame, features));
         self.decide(tick, slot, allowed, obs.reference)
     }
 
@@ -294,14 +294,14 @@ impl Agent {
     }
 }
 
-/// The collisions and clearances of `obs` into `out` (what [`Evaluator::evaluate`] does before
-/// the path features), with a fresh [`Evaluator`] whose scratch lives in this call's frame
+/// The collisions and features of `obs` into `out` (what [`Evaluator::evaluate`] does once the
+/// path's frame is made), with a fresh [`Evaluator`] whose scratch lives in this call's frame
 /// alone. Never inlined: inlined into its callers (on the car, into the node's handling of a
 /// message), the scratch would sit in their frame during everything else they call too (the
 /// answer's MAC, a feedback's learning step), not only during the evaluation.
 #[inline(never)]
-fn clearances(obs: ValidObservation<'_>, out: &mut FeatureTable) -> u64 {
-    Evaluator::new().clearances(obs, out)
+fn clearances(obs: ValidObservation<'_>, frame: &PathFrame, out: &mut FeatureTable) -> u64 {
+    Evaluator::new().clearances(obs, frame, out)
 }
 
 /// Learns from `feedback` about the tick `record` holds.

@@ -60,11 +60,14 @@
 //!    from the centre is nobody's nearest: the members measure only the candidates within
 //!    `m + 2s` (the near set), usually one to three;
 //! 4. clusters are visited farthest first: a sample's nearest distance decides its collision,
-//!    and the samples whose trajectories all collide already are skipped; then the semantic
-//!    features run over the clusters some trajectory that does not collide uses (every member
-//!    of such a cluster: measuring a member that no such trajectory uses costs less than testing
-//!    it), and the sums over the trajectories that do not collide only; a trajectory none of
-//!    whose samples came within a clip reads ten clips without a sum. Semantic objects are
+//!    and the samples whose trajectories all collide already are skipped, and so are the
+//!    members of a cluster whose centre's nearest candidate is beyond the clip by more than the
+//!    spread; then the semantic features run over the clusters some trajectory that does not
+//!    collide uses (every member of such a cluster: measuring a member that no such trajectory
+//!    uses costs less than testing it; a cluster near no object writes the clip, so no sample is
+//!    filled beforehand), and the sums over the trajectories that do not collide only; every
+//!    clearance feature of an allowed row starts as ten clips, in one pass with the path and
+//!    side features, and only a trajectory with a sample within a clip takes a sum. Semantic objects are
 //!    pruned per cluster the same way (reach, and an object that is farther than another for
 //!    every member), and where the centre's distance settles a test for every member at once
 //!    (outside the disc, within the clip, inside the disc), a loop without it runs.
@@ -256,33 +259,32 @@ impl Evaluator {
     ///
     /// The observation was validated once, by [`Observation::check`].
     pub fn evaluate(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> ActionMask {
-        let allowed = self.clearances(obs, out);
-        path_features(obs, allowed, out)
+        let frame = PathFrame::new(&obs.reference);
+        ActionMask::from_bits(self.clearances(obs, &frame, out))
     }
 
-    /// The part of [`Evaluator::evaluate`] that needs the scratch: the collisions and the
-    /// clearance features of the trajectories that do not collide (the rows of the others
-    /// zeroed), one bit per action that does not collide. [`path_features`] completes the
-    /// rows: apart, so that a caller with a fresh evaluator on its stack (the agent) holds the
-    /// scratch only here, not during the path's `sincosf` too (768 bytes of frame on the car).
-    pub(crate) fn clearances(&mut self, obs: ValidObservation<'_>, out: &mut FeatureTable) -> u64 {
+    /// [`Evaluator::evaluate`] with the path's frame made already: the collisions and every
+    /// feature of the trajectories that do not collide (the rows of the others zeroed), one bit
+    /// per action that does not collide. The frame is made apart, so that a caller with a fresh
+    /// evaluator on its stack (the agent) holds the scratch only here, not during the path's
+    /// `sincosf` too (768 bytes of frame on the car).
+    pub(crate) fn clearances(
+        &mut self,
+        obs: ValidObservation<'_>,
+        frame: &PathFrame,
+        out: &mut FeatureTable,
+    ) -> u64 {
         let obstacles = self.obstacles(&obs.scan.ranges);
         let rows = out.rows_mut();
-        let f = Feature::Obstacles.index();
         let allowed = match obstacles {
-            Obstacles::Clear => {
-                // Every clearance is the clip: every sum is ten clips.
-                for row in rows.iter_mut() {
-                    row[f] = SAMPLES as f32;
-                }
-                u64::MAX
-            }
-            Obstacles::Measured { allowed, touched } => {
-                for_each_action(!allowed, |a| rows[a] = [0.0; FEATURE_COUNT]);
-                self.sum_rows(allowed, touched, f, OBSTACLE_CLIP, rows);
-                allowed
-            }
+            Obstacles::Clear => u64::MAX,
+            Obstacles::Measured { allowed, .. } => allowed,
         };
+        start_rows(allowed, frame, rows);
+        if let Obstacles::Measured { allowed, touched } = obstacles {
+            let f = Feature::Obstacles.index();
+            self.sum_rows(allowed, touched, f, OBSTACLE_CLIP, rows);
+        }
         if allowed != 0 {
             for class in SemanticClass::ALL {
                 self.semantic(&obs, class, allowed, rows);
@@ -405,6 +407,11 @@ impl Evaluator {
                 collided |= cluster.trajectories;
                 continue;
             }
+            if (m - spread) * (1.0 - 1.0e-5) - REACH_MARGIN > OBSTACLE_CLIP {
+                // Every point is at least `m − s` from every member: beyond the clip, so every
+                // member keeps the clip and collides with nothing.
+                continue;
+            }
             // Generous against rounding: a relative 1e-5 and the 1 mm margin.
             let limit = clipped((m + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN, reach);
             let limit2 = limit * limit;
@@ -459,8 +466,9 @@ impl Evaluator {
     /// to ten samples and divided by `clip`, into feature `f`: the shared heads once, then each
     /// trajectory's tail, in order along it (the same sum, bit for bit, as one pass: padding
     /// adds the clearance of the unused slot `PAD_SAMPLE`, which stays 0). A trajectory not in
-    /// `touched` has the clip at every sample: its sum is exactly ten clips, and it reads
-    /// [`SAMPLES`] without the sum (a sum of clips, a power of two, is exact).
+    /// `touched` has the clip at every sample: its sum is exactly ten clips, and it keeps the
+    /// [`SAMPLES`] that [`Evaluator::clearances`] wrote (a sum of clips, a power of two, is
+    /// exact).
     fn sum_rows(
         &self,
         allowed: u64,
@@ -469,19 +477,16 @@ impl Evaluator {
         clip: f32,
         rows: &mut [Features; MAX_ACTIONS],
     ) {
-        for_each_action(allowed & !touched, |a| rows[a][f] = SAMPLES as f32);
         let todo = allowed & touched;
         if todo == 0 {
             return;
         }
         let c = &self.clearance;
         let at = |u: u16| c[usize::from(u) & (SCRATCH - 1)];
-        let mut heads = [0.0f32; HEAD_COUNT];
-        for (sum, head) in heads.iter_mut().zip(HEADS.iter()) {
-            for &u in head {
-                *sum += at(u);
-            }
-        }
+        // Built element by element rather than zeroed and added to: a zeroed local array is a
+        // call to `memclr` on a Cortex-M4. The same sums (from 0.0, in order).
+        let heads: [f32; HEAD_COUNT] =
+            core::array::from_fn(|h| HEADS[h].iter().fold(0.0, |sum, &u| sum + at(u)));
         for_each_action(todo, |a| {
             // Written out: a loop of six costs a counter and a branch per sample on a Cortex-M4.
             let [t0, t1, t2, t3, t4, t5] = TAIL_OF[a];
@@ -529,39 +534,49 @@ impl Evaluator {
         }
         if n == 0 {
             // No object of the class, or none within reach: every clearance is the clip, and
-            // every sum ten clips (an absent class reads the same).
-            for_each_action(allowed, |a| rows[a][f] = SAMPLES as f32);
+            // every sum ten clips (an absent class reads the same), as the rows hold already.
             return;
         }
         let objects = &objects[..n];
-        fill(&mut self.clearance, SEMANTIC_CLIP);
         let mut touched = 0u64;
         for cluster in &CLUSTERS {
-            // A cluster no allowed trajectory uses is skipped; in the others every member is
-            // measured (a member only colliding trajectories use is written and never read:
-            // measuring it costs less than testing it).
+            // A cluster no allowed trajectory uses is skipped (the sums read no member of it);
+            // in the others every member is written: the clip, or measured (a member only
+            // colliding trajectories use is written and never read: measuring it costs less than
+            // testing it). So every sample an allowed trajectory has is written, without a fill
+            // of every sample.
             if cluster.trajectories & allowed == 0 {
                 continue;
             }
             // The objects within reach of some member of the cluster.
             let [cx, cy] = cluster.centre;
             let mut near = 0u32;
+            // The squared distance from the centre to the last object within reach: the only
+            // one's, when one alone is (its root is the centre's distance below).
+            let mut last2 = 0.0;
             for (k, o) in objects.iter().enumerate() {
                 let (dx, dy) = (cx - o.x, cy - o.y);
                 let limit = o.reach + cluster.spread;
-                if dx * dx + dy * dy < limit * limit {
+                let d2 = dx * dx + dy * dy;
+                if d2 < limit * limit {
                     near |= 1 << k;
+                    last2 = d2;
                 }
             }
             if near == 0 {
+                let start = usize::from(cluster.samples[0]);
+                let end = usize::from(cluster.samples[1]);
+                if let Some(clearance) = self.clearance.get_mut(start..end) {
+                    for c in clearance {
+                        *c = SEMANTIC_CLIP;
+                    }
+                }
                 continue;
             }
             touched |= cluster.trajectories;
             let centre;
             (near, centre) = if near & (near - 1) == 0 {
-                let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
-                let (dx, dy) = (cx - o.x, cy - o.y);
-                (near, sqrt(dx * dx + dy * dy))
+                (near, sqrt(last2))
             } else {
                 dominant(objects, near, cluster)
             };
@@ -597,8 +612,8 @@ impl Evaluator {
     /// nearest of its class to them. The same values, bit for bit, as the general loop: where the
     /// centre's distance and the spread decide a test for every member at once (each with a 1 mm
     /// margin, far above the rounding of these distances), a loop without it runs: every member
-    /// outside the disc (no test of the root's sign nor of the reach: a member beyond the reach
-    /// is beyond the clip and reads the clip either way), and within the clip as well (no clip),
+    /// outside the disc (no test of the root's sign; a member beyond the reach reads the clip
+    /// without a root), and within the clip as well (no clip nor reach),
     /// or every member inside the disc (0). `centre` is the distance from the cluster's centre to
     /// the object's.
     fn one_object(&mut self, cluster: &Cluster, o: &Disc, centre: f32) {
@@ -626,11 +641,17 @@ impl Evaluator {
         }
         if centre - spread > radius {
             // Outside the disc by more than a millimetre, but some member may be beyond the
-            // clip: no test of the reach (a member beyond it is beyond the clip too, and reads
-            // the clip either way) nor of the root's sign.
+            // clip: no test of the root's sign; a member beyond the reach reads the clip without
+            // a root (a compare costs less than the root it saves).
             for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
                 let (dx, dy) = (sx - ox, sy - oy);
-                *c = clipped(newton_sqrt(dx * dx + dy * dy) - radius, SEMANTIC_CLIP);
+                let d2 = dx * dx + dy * dy;
+                // Beyond the reach is beyond the clip by a millimetre: the clip, without a root.
+                *c = if d2 < reach2 {
+                    clipped(newton_sqrt(d2) - radius, SEMANTIC_CLIP)
+                } else {
+                    SEMANTIC_CLIP
+                };
             }
             return;
         }
@@ -652,6 +673,34 @@ impl Evaluator {
             };
         }
     }
+}
+
+/// The rows before the sums: zeros for the trajectories that collide; for the others ten clips
+/// in every clearance feature, in one pass with the path and side features (the sums then
+/// overwrite the clearances of the trajectories with a sample nearer than a clip). Not inlined:
+/// apart from the passes over the clusters, it keeps its own registers.
+#[inline(never)]
+fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS]) {
+    // Six stores a row: a zero the compiler cannot see (`black_box`) keeps it from making each
+    // row a call to `memclr` (about 30 instructions on a Cortex-M4).
+    let zero = core::hint::black_box(0.0f32);
+    for_each_action(!allowed, |a| rows[a] = [zero; FEATURE_COUNT]);
+    const CLIPS: f32 = SAMPLES as f32;
+    const _: () = assert!(
+        Feature::Obstacles.index() == 0
+            && Feature::Door.index() == 1
+            && Feature::Stairs.index() == 2
+            && Feature::Chair.index() == 3,
+        "the clearance features are the first four"
+    );
+    for_each_action(allowed, |a| {
+        let row = &mut rows[a];
+        row[0] = CLIPS;
+        row[1] = CLIPS;
+        row[2] = CLIPS;
+        row[3] = CLIPS;
+        [row[Feature::Path.index()], row[Feature::Right.index()]] = frame.path_and_side(a);
+    });
 }
 
 /// Sets the clearance of every sample to `value` (the unused slots above stay 0).
@@ -805,14 +854,14 @@ const SHORTER: usize = (RANGE_BINS + 1).next_power_of_two();
 /// ```
 pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     let p = reference;
-    // `sincosf`, not `sinf` and `cosf`: those two then keep a single caller, `path_and_side`,
+    // `sincosf`, not `sinf` and `cosf`: those two then keep a single caller, `PathFrame::new`,
     // and stay inlined in the tick's `act` (calling them out of line from there cost 440
     // instructions a tick on the Cortex-M4, measured). Host and car both reach this function,
     // so they compare the same numbers whatever the last bit of the heading's sine.
     let (s, c) = libm::sincosf(p.heading);
     let mut out = [0.0f32; MAX_ACTIONS];
     for (d, &[x, y]) in out.iter_mut().zip(END_POINTS.iter()) {
-        // The cross-track part of the end in the reference's frame (as `path_and_side`'s
+        // The cross-track part of the end in the reference's frame (as `PathFrame::path_and_side`'s
         // `local.y`), written out with `sincosf`.
         let dx = x - p.x;
         let dy = y - p.y;
@@ -822,40 +871,39 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     out
 }
 
-/// Completes what [`Evaluator::clearances`] wrote into `out` (the trajectories that do not
-/// collide, `allowed`): the path and side features of those trajectories. Returns the mask.
-#[inline]
-pub(crate) fn path_features(
-    obs: ValidObservation<'_>,
-    allowed: u64,
-    out: &mut FeatureTable,
-) -> ActionMask {
-    if allowed != 0 {
-        path_and_side(&obs, allowed, out.rows_mut());
-    }
-    ActionMask::from_bits(allowed)
+/// The path reference's frame, for the path and side features: made once per observation
+/// (one `sincosf`), before the evaluator's scratch is in use.
+pub(crate) struct PathFrame {
+    reference: Isometry2<f32>,
 }
 
-/// Path error and lateral offset of every allowed trajectory's end: the end in the frame of the
-/// path reference (`along`, `cross`), and the end's `y`.
-fn path_and_side(obs: &Observation, allowed: u64, rows: &mut [Features; MAX_ACTIONS]) {
-    let p = &obs.reference;
-    // Cosine and sine from `libm`: the same bits on the host and the car. One `sincosf` is the
-    // same bits as `sinf` and `cosf` apart (every heading in [-π, π] checked exhaustively) and
-    // reduces the angle once.
-    let (sin, cos) = libm::sincosf(p.heading);
-    let reference = Isometry2::from_parts(
-        Translation2::new(p.x, p.y),
-        UnitComplex::from_cos_sin_unchecked(cos, sin),
-    );
-    for_each_action(allowed, |a| {
-        let [x, y] = END_POINTS[a];
-        let row = &mut rows[a];
-        let local = reference.inverse_transform_point(&Point2::new(x, y));
+impl PathFrame {
+    /// The frame of `p`. Cosine and sine from `libm`: the same bits on the host and the car. One
+    /// `sincosf` is the same bits as `sinf` and `cosf` apart (every heading in [-π, π] checked
+    /// exhaustively) and reduces the angle once.
+    #[inline]
+    pub(crate) fn new(p: &PathReference) -> Self {
+        let (sin, cos) = libm::sincosf(p.heading);
+        Self {
+            reference: Isometry2::from_parts(
+                Translation2::new(p.x, p.y),
+                UnitComplex::from_cos_sin_unchecked(cos, sin),
+            ),
+        }
+    }
+
+    /// Path error and lateral offset of trajectory `a`'s end: the end in the frame of the path
+    /// reference (`along`, `cross`), and the end's `y`.
+    #[inline(always)]
+    fn path_and_side(&self, a: usize) -> [f32; 2] {
+        let [x, y] = END_POINTS[a & (MAX_ACTIONS - 1)];
+        let local = self.reference.inverse_transform_point(&Point2::new(x, y));
         let error = libm::fabsf(local.x) + libm::fabsf(local.y);
-        row[Feature::Path.index()] = if error < PATH_CLIP { error } else { PATH_CLIP };
-        row[Feature::Right.index()] = -RIGHT_SCALE * y;
-    });
+        [
+            if error < PATH_CLIP { error } else { PATH_CLIP },
+            -RIGHT_SCALE * y,
+        ]
+    }
 }
 
 /// The directions of the scan's beams, `(cos, sin)` of [`beam_bearing`](crate::observation::beam_bearing),

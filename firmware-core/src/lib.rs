@@ -84,8 +84,8 @@
 //! for the evaluation only. The lattice and the evaluator's precomputed tables are `static` data
 //! in flash.
 //!
-//! On the car's Cortex-M4F one tick (evaluate + select) costs 9 K instructions in open space and
-//! 45 K on average over real simulator ticks (`scripts/measure-firmware`, `docs/firmware.md`);
+//! On the car's Cortex-M4F one tick (evaluate + select) costs 8.5 K instructions in open space and
+//! 42 K on average over real simulator ticks (`scripts/measure-firmware`, `docs/firmware.md`);
 //! on x86-64 it is 0.8–6 µs (`cargo bench -p firmware-core --features bench --bench evaluator`) and
 //! a learning round (select + update) well under 2 µs (`--bench learner`, group `round`).
 

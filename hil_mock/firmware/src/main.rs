@@ -17,7 +17,8 @@
 //! * `bench-node N`: N observations through the car node, frame by frame (reassembly, decoding,
 //!   act, the answer encoded and segmented);
 //! * `stack`: the worst-case stack of act, of every feedback kind and of the car node, by painting;
-//! * `replay-count`, `replay I do|skip` (feature `replay`): ticks recorded from the simulator.
+//! * `replay-count`, `replay I 1|0`, `replay-all` (feature `replay`): ticks recorded from the
+//!   simulator.
 //!
 //! The measurement modes print their result on the semihosting console and exit with status 0.
 //! Reading the command line is a semihosting call, so an image with the feature `cli` (implied by

@@ -245,27 +245,38 @@ pub fn run<'a>(
         "replay-count" => println!("replay-count {}", crate::replay::count()),
         #[cfg(feature = "replay")]
         "replay" => {
-            use crate::replay::{Last, replay};
             let last = number(args.next()) as usize;
-            let run_last = args.next() == Some("do");
-            let (what, sum) = replay(agent, last, run_last);
-            match what {
-                Last::Restore => println!("replay {last} restore checksum {sum}"),
-                Last::Act(t, a) => println!("replay {last} act tick {t} action {a} checksum {sum}"),
-                Last::Feedback(t, ok) => {
-                    println!("replay {last} feedback tick {t} applied {ok} checksum {sum}")
-                }
-                Last::Other => println!("replay {last} other checksum {sum}"),
-            }
+            // 1 or 0, parsed alike: the two runs of an item differ in nothing but that digit.
+            let run_last = number(args.next()) != 0;
+            let (what, sum) = crate::replay::replay(agent, last, run_last);
+            replay_report(last, what, sum);
         }
+        #[cfg(feature = "replay")]
+        "replay-all" => crate::replay::replay_all(agent, replay_report),
         other => {
             println!(
                 "error: unknown mode {other:?}; expected serve, echo, bench-act N [SCENE], \
                  bench-learn N, bench-node N, bench-host N, bench-mac N LEN, stack, \
-                 replay-count or replay I do|skip"
+                 replay-count, replay I 1|0 or replay-all"
             );
             process::exit(2)
         }
     }
     process::exit(0)
+}
+
+/// The line `replay I 1|0` ends with, and `replay-all` prints after each piece (the same
+/// instructions in both, never inlined: see [`crate::replay::step`]).
+#[cfg(feature = "replay")]
+#[inline(never)]
+fn replay_report(last: usize, what: crate::replay::Last, sum: u32) {
+    use crate::replay::Last;
+    match what {
+        Last::Restore => println!("replay {last} restore checksum {sum}"),
+        Last::Act(t, a) => println!("replay {last} act tick {t} action {a} checksum {sum}"),
+        Last::Feedback(t, ok) => {
+            println!("replay {last} feedback tick {t} applied {ok} checksum {sum}")
+        }
+        Last::Other => println!("replay {last} other checksum {sum}"),
+    }
 }
