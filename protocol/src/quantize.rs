@@ -129,6 +129,21 @@ fn range_value(code: u16) -> f32 {
     code as f32 / RANGE_STEPS_PER_METRE
 }
 
+/// `range_value(range_code(r))` without branches, for [`quantize`]'s 64 ranges: a valid range
+/// (`0 ≤ r ≤ SCAN_MAX_RANGE`, which NaN and the infinities are not) rounds half up to its code
+/// (it is not negative), anything else takes the invalid code, and the code becomes its value
+/// as `range_value` makes it. The same bits (`range_step_is_code_then_value` checks the edges and
+/// every range on the wire's centimetre boundaries).
+fn range_step(r: f32) -> f32 {
+    let valid = (0.0..=SCAN_MAX_RANGE).contains(&r);
+    let code = if valid {
+        r * RANGE_STEPS_PER_METRE + 0.5
+    } else {
+        RANGE_INVALID as f32
+    };
+    (code as i32) as f32 / RANGE_STEPS_PER_METRE
+}
+
 /// Millimetres of a signed length within `bound` metres.
 fn mm_code(x: f32, bound: f32) -> i16 {
     if within(x, bound) {
@@ -168,8 +183,37 @@ fn heading_value(code: i16) -> f32 {
 
 /// The observation a learner sees: every number rounded to its wire step (see the module
 /// documentation). Total, idempotent, and it keeps the verdict of [`Observation::validate`].
+///
+/// Each number goes through its code and back (`value(code(x))`) without the wire form in
+/// between: the codes fit their packed fields (a range code is at most 1023, 10 bits), so packing
+/// and unpacking them loses nothing and this is `WireObservation::encode(obs).decode()`, bit for
+/// bit (`quantize_is_the_wire_round_trip` checks it), at a fraction of the cost.
 pub fn quantize(obs: &Observation) -> Observation {
-    WireObservation::encode(obs).decode()
+    let mut scan = Scan::EMPTY;
+    for (q, &r) in scan.ranges.iter_mut().zip(&obs.scan.ranges) {
+        *q = range_step(r);
+    }
+    let mut objects = ObjectList::new();
+    for o in &obs.objects {
+        // As many objects as the observation's list holds: there is room.
+        let _ = objects.push(SemanticObject {
+            class: o.class,
+            x: mm_value(mm_code(o.x, OBJECT_COORDINATE_BOUND)),
+            y: mm_value(mm_code(o.y, OBJECT_COORDINATE_BOUND)),
+            radius: radius_value(radius_code(o.radius)),
+        });
+    }
+    let r = &obs.reference;
+    Observation {
+        scan,
+        objects,
+        reference: PathReference {
+            x: mm_value(mm_code(r.x, REFERENCE_COORDINATE_BOUND)),
+            y: mm_value(mm_code(r.y, REFERENCE_COORDINATE_BOUND)),
+            heading: heading_value(heading_code(r.heading)),
+        },
+        speed: mm_value(mm_code(obs.speed, MAX_SPEED)),
+    }
 }
 
 /// The 64 ranges, 10 bits each, packed little-endian: range `j` is bits `10·j .. 10·j + 10` of
@@ -418,6 +462,51 @@ mod tests {
     }
 
     #[test]
+    fn range_step_is_code_then_value() {
+        let same = |r: f32| {
+            assert_eq!(
+                range_step(r).to_bits(),
+                range_value(range_code(r)).to_bits(),
+                "{r:e} ({:#x})",
+                r.to_bits()
+            );
+        };
+        for r in [
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            SCAN_MAX_RANGE,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            f32::MAX,
+            f32::MIN,
+            1e10,
+            -1e10,
+        ] {
+            same(r);
+        }
+        // Every half centimetre up to 10.5 m (the rounding boundaries and the steps), each with
+        // its neighbours four representable numbers either way.
+        for k in 0..=2100u32 {
+            let r = k as f32 * 0.005;
+            for d in -4i32..=4 {
+                same(f32::from_bits(r.to_bits().wrapping_add_signed(d)));
+                same(-f32::from_bits(r.to_bits().wrapping_add_signed(d)));
+            }
+        }
+        // And a dense sweep of every bit pattern from 0 to 16 m, one in 61.
+        let mut bits = 0u32;
+        while bits <= 16.0f32.to_bits() {
+            same(f32::from_bits(bits));
+            same(f32::from_bits(bits | 0x8000_0000));
+            bits += 61;
+        }
+    }
+
+    #[test]
     fn steps_and_bounds_are_as_documented() {
         assert_eq!(range_code(1.234), 123);
         assert_eq!(range_code(1.235), 124, "half away from zero");
@@ -522,6 +611,14 @@ mod tests {
                 }
                 prop_assert!((obs.speed - q.speed).abs() <= 0.0005 + 1e-6);
             }
+        }
+
+        #[test]
+        fn quantize_is_the_wire_round_trip(obs in observation()) {
+            // Bit for bit (`{:?}` tells -0 from +0 and shows NaN): the direct rounding is the
+            // encoding and decoding it replaced.
+            let wire = WireObservation::encode(&obs).decode();
+            prop_assert_eq!(format!("{:?}", quantize(&obs)), format!("{:?}", wire));
         }
 
         #[test]

@@ -91,7 +91,16 @@ impl Pose {
 /// features a build unifies).
 #[inline]
 pub fn rotation(angle: f64) -> UnitComplex<f64> {
-    UnitComplex::from_cos_sin_unchecked(libm::cos(angle), libm::sin(angle))
+    let (sin, cos) = sin_cos(angle);
+    UnitComplex::from_cos_sin_unchecked(cos, sin)
+}
+
+/// `(libm::sin(angle), libm::cos(angle))`, bit for bit, with one argument reduction for both:
+/// libm's `sincos` runs the same kernels on the same reduced argument as its `sin` and `cos`
+/// (`sin_cos_is_libms_sin_and_cos` checks it).
+#[inline]
+pub fn sin_cos(angle: f64) -> (f64, f64) {
+    libm::sincos(angle)
 }
 
 /// Wraps an angle into `[−π, π]`.
@@ -165,6 +174,9 @@ impl CarParams {
             ny: libm::ceil(self.width / step) as usize,
             near: (reach / map.resolution()).floor() + 2.0,
             near_quarter: (quarter / map.resolution()).floor() + 2.0,
+            reach,
+            resolution: map.resolution(),
+            swing: 1.0 + self.center_offset.abs() * libm::tan(self.max_steering) / self.wheelbase,
         }
     }
 }
@@ -181,9 +193,43 @@ pub struct Footprint {
     near: f64,
     /// The same for a quarter's centre and its samples.
     near_quarter: f64,
+    /// Half the footprint's diagonal (m), and the map's resolution.
+    reach: f64,
+    resolution: f64,
+    /// How far the footprint's centre moves, at most, per metre the rear axle drives
+    /// ([`Footprint::travel`]).
+    swing: f64,
 }
 
 impl Footprint {
+    /// Whether the footprint touches no blocked cell at any pose within `travel` metres of `pose`
+    /// (rotation given, `pose.rotation()`) as its centre moves: every sample of such a pose lies
+    /// within half the diagonal plus `travel` of the centre at `pose`, so, as for one pose, a
+    /// centre whose clearance exceeds ⌊(half-diagonal + travel) / resolution⌋ + 2 cells shows
+    /// them all clear. `true` means [`Footprint::hits`] is `false` at every such pose; `false`
+    /// settles nothing.
+    pub fn clear_within(
+        &self,
+        map: &OccupancyGrid,
+        pose: Pose,
+        rotation: UnitComplex<f64>,
+        travel: f64,
+    ) -> bool {
+        let near = ((self.reach + travel) / self.resolution).floor() + 2.0;
+        let centre = pose.isometry_turned(rotation) * Point2::new(self.car.center_offset, 0.0);
+        map.clearance_cells(centre.x, centre.y) as f64 > near
+    }
+
+    /// How far (m) the footprint's centre can move from where it is in `steps` physics steps of
+    /// `dt` at speeds of at most `speed` (m/s, the larger of the car's and the command's: a step
+    /// moves the speed towards the command), with a millimetre for rounding: each step moves the
+    /// rear axle along an arc of `|v|·dt` (its chord is shorter) and turns the heading by
+    /// `|k|·|v|·dt` with `|k| ≤ tan(max_steering) / wheelbase`, which moves the centre, ahead of
+    /// the axle by the centre offset, by at most the offset times that angle.
+    pub fn travel(&self, steps: u32, dt: f64, speed: f64) -> f64 {
+        f64::from(steps) * dt * libm::fabs(speed) * self.swing + 1e-3
+    }
+
     /// [`CarParams::footprint_hits`] with the heading's rotation given (`pose.rotation()`), on a
     /// map of the resolution this was made for.
     pub fn hits(&self, map: &OccupancyGrid, pose: Pose, rotation: UnitComplex<f64>) -> bool {
@@ -193,6 +239,7 @@ impl Footprint {
             ny,
             near,
             near_quarter,
+            ..
         } = *self;
         let iso = pose.isometry_turned(rotation);
         let centre = iso * Point2::new(car.center_offset, 0.0);
@@ -279,7 +326,7 @@ impl CarState {
             rotation
         } else {
             let th2 = th + k * s;
-            let (cos2, sin2) = (libm::cos(th2), libm::sin(th2));
+            let (sin2, cos2) = sin_cos(th2);
             self.pose.x += (sin2 - sin_th) / k;
             self.pose.y -= (cos2 - cos_th) / k;
             self.pose.theta = wrap_angle(th2);
@@ -418,6 +465,125 @@ mod tests {
     use super::*;
     use firmware_core::ActionIndex;
     use firmware_core::lattice::trajectory;
+
+    #[test]
+    fn a_footprint_clear_within_its_travel_hits_nothing_for_a_tick() {
+        // Ticks of ten physics steps from random free poses of every built-in map, with random
+        // speeds (up to 4 m/s, twice the lattice's fastest) and random trajectories: when the
+        // start says the tick's travel is clear, no step's footprint may hit.
+        use crate::world::registry::{SCENARIOS, load_scenario_unchecked};
+        use firmware_core::{ActionIndex, MAX_ACTIONS};
+        let p = CarParams::MUSHR;
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut uniform = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (mut clear, mut unclear, mut hit) = (0u32, 0u32, 0u32);
+        for s in SCENARIOS {
+            let map = load_scenario_unchecked(s.name).unwrap().map;
+            let footprint = p.footprint_on(&map);
+            let (w, h, o) = (
+                map.width() as f64 * map.resolution(),
+                map.height() as f64 * map.resolution(),
+                map.origin(),
+            );
+            for _ in 0..4000 {
+                let pose = Pose {
+                    x: o[0] + uniform() * w,
+                    y: o[1] + uniform() * h,
+                    theta: (uniform() - 0.5) * 7.0,
+                };
+                if map.is_blocked(pose.x, pose.y) {
+                    continue;
+                }
+                let action = ActionIndex::new((uniform() * MAX_ACTIONS as f64) as usize).unwrap();
+                let mut car = CarState {
+                    pose,
+                    speed: uniform() * 4.0,
+                    steering: (uniform() - 0.5) * 2.0 * p.max_steering,
+                };
+                let command = uniform() * 4.0;
+                let tracker = Tracker::new(pose, firmware_core::lattice::trajectory(action));
+                let dt = 0.01;
+                let travel = footprint.travel(10, dt, car.speed.max(command));
+                let is_clear = footprint.clear_within(&map, pose, pose.rotation(), travel);
+                let mut any = false;
+                for _ in 0..10 {
+                    let steer = tracker.steering(car.pose, &p);
+                    car.step(&p, steer, command, dt);
+                    any |= p.footprint_hits(&map, car.pose);
+                }
+                assert!(!(is_clear && any), "{}: {pose:?}", s.name);
+                if is_clear {
+                    clear += 1;
+                } else {
+                    unclear += 1;
+                    hit += u32::from(any);
+                }
+            }
+        }
+        assert!(
+            clear > 2000 && unclear > 2000 && hit > 200,
+            "{clear} {unclear} {hit}"
+        );
+    }
+
+    #[test]
+    fn sin_cos_is_libms_sin_and_cos() {
+        // Every branch of libm's reduction: tiny, below π/4, medium and huge arguments, both
+        // signs, the binade edges of its thresholds, the infinities and NaN, and many random
+        // bit patterns.
+        let mut xs = vec![
+            0.0,
+            -0.0,
+            f64::MIN_POSITIVE,
+            5e-324,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            f64::MAX,
+            std::f64::consts::FRAC_PI_4,
+            std::f64::consts::PI,
+            1e22,
+        ];
+        for high in [
+            0x3e46a09e_u64,
+            0x3e500000,
+            0x3fe921fb,
+            0x4002d97c,
+            0x400f6a7a,
+            0x413921fb,
+        ] {
+            for low in [0u64, 1, 0x7fff_ffff, 0xffff_ffff] {
+                for delta in [-1i64, 0, 1] {
+                    let bits = ((high << 32) | low).wrapping_add_signed(delta);
+                    xs.push(f64::from_bits(bits));
+                }
+            }
+        }
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        for i in 0..400_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            xs.push(if i % 2 == 0 {
+                f64::from_bits(state)
+            } else {
+                // Headings, as the car has them.
+                ((state >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 20.0
+            });
+        }
+        for x in xs {
+            for x in [x, -x] {
+                let (s, c) = sin_cos(x);
+                assert_eq!(s.to_bits(), libm::sin(x).to_bits(), "sin {x:e}");
+                assert_eq!(c.to_bits(), libm::cos(x).to_bits(), "cos {x:e}");
+            }
+        }
+    }
 
     #[test]
     fn step_turned_returns_the_new_headings_rotation_bit_for_bit() {

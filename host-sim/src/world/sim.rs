@@ -9,7 +9,7 @@
 //!   [`Episode::observe_near`] instead: each beam cast only to its [`scan_cut`] (0.34 m sideways
 //!   to 1.71 m ahead), beyond which no evaluation can see a scan point; the evaluation is the
 //!   same, bit for bit, and most beams need no cast at all (the clearance around the car, or at
-//!   both ends of the beam, shows them free).
+//!   the beam's start, middle and end, shows them free).
 //! * **Semantic detections**: every object whose nearest point is within [`SENSOR_RANGE`] (5 m)
 //!   and in line of sight (the segment from the sensor to that point crosses no blocked cell
 //!   before its last [`LOS_SLACK_CELLS`] cells, so objects drawn as obstacles, a stairwell's
@@ -54,7 +54,7 @@ use firmware_core::{ActionIndex, MAX_ACTIONS};
 
 use nalgebra::Isometry2;
 
-use crate::world::car::{CarParams, CarState, Pose, Tracker, wrap_angle};
+use crate::world::car::{CarParams, CarState, Footprint, Pose, Tracker, wrap_angle};
 use crate::world::scenario::Scenario;
 
 /// Range of the semantic detector (m).
@@ -138,6 +138,8 @@ pub struct Episode {
     /// Where this episode starts and every reset returns (the scenario's start unless jittered).
     start: Pose,
     params: CarParams,
+    /// The footprint test's constants for `params` on the scenario's map.
+    footprint: Footprint,
     car: CarState,
     /// Arc length of the car's projection onto the path.
     s: f64,
@@ -159,11 +161,14 @@ impl Episode {
     /// The car at `start` instead of the scenario's start; every reset returns there. The caller
     /// checks that the pose is free (see [`crate::teach::experiment::StartJitter`]).
     pub fn starting_at(scenario: Arc<Scenario>, start: Pose) -> Self {
+        let params = CarParams::MUSHR;
+        let footprint = params.footprint_on(&scenario.map);
         let mut e = Self {
             car: CarState::at(start),
             start,
             scenario,
-            params: CarParams::MUSHR,
+            params,
+            footprint,
             s: 0.0,
             progress: 0.0,
             best: 0.0,
@@ -273,14 +278,18 @@ impl Episode {
         // The heading's cosine and sine, once per pose (each use would compute the same bits).
         let mut rotation = self.car.pose.rotation();
         let tracker = Tracker::new_turned(self.car.pose, rotation, trajectory(action));
-        let footprint = self.params.footprint_on(&self.scenario.map);
+        let footprint = self.footprint;
         let dt = TICK_SECONDS / PHYSICS_STEPS as f64;
+        // Far enough from every wall for the whole tick: no step's footprint test can hit.
+        let speed = self.car.speed.abs().max(tracker.speed().abs());
+        let travel = footprint.travel(PHYSICS_STEPS, dt, speed);
+        let clear = footprint.clear_within(&self.scenario.map, self.car.pose, rotation, travel);
         for _ in 0..PHYSICS_STEPS {
             let steer = tracker.steering_turned(self.car.pose, rotation, &self.params);
             rotation = self
                 .car
                 .step_turned(&self.params, steer, tracker.speed(), dt, rotation);
-            if footprint.hits(&self.scenario.map, self.car.pose, rotation) {
+            if !clear && footprint.hits(&self.scenario.map, self.car.pose, rotation) {
                 self.reset();
                 return TickResult {
                     reset: Some(ResetReason::Collision),
@@ -353,7 +362,9 @@ pub fn scan_cut(beam: usize) -> Option<f64> {
     SCAN_CUT.get(beam).copied()
 }
 
-static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
+/// Every sample [`scan_cut`] keeps its beams' points away from: every lattice trajectory's, and
+/// every deformed trajectory's of a perturbation.
+fn cut_samples() -> Vec<[f32; 2]> {
     let actions = || (0..MAX_ACTIONS).filter_map(ActionIndex::new);
     let mut points: Vec<[f32; 2]> = Vec::new();
     for a in actions() {
@@ -362,24 +373,40 @@ static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
             points.extend_from_slice(DeformedTrajectory::between(a, b, PUSH).samples());
         }
     }
+    points
+}
+
+static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
     let radius = OBSTACLE_CLIP as f64 + CUT_MARGIN;
-    std::array::from_fn(|j| {
+    let directions: [(f64, f64); SCAN_BEAMS] = std::array::from_fn(|j| {
         let (c, s) = beam_direction(j).unwrap_or((1.0, 0.0));
-        let (c, s) = (c as f64, s as f64);
-        // The farthest range at which the beam's point is within `radius` of a point: the far
-        // end of the chord of the disc around the point.
-        let far = points
-            .iter()
-            .filter_map(|p| {
-                let (x, y) = (p[0] as f64, p[1] as f64);
-                let t = c * x + s * y;
-                let q = t * t - (x * x + y * y) + radius * radius;
-                (q > 0.0).then(|| t + q.sqrt())
-            })
-            .fold(0.0, f64::max);
-        (far + 0.01).min(SCAN_MAX_RANGE as f64)
-    })
+        (c as f64, s as f64)
+    });
+    // Per beam, the farthest range at which its point is within `radius` of a sample: the far
+    // end of the chord of the disc around the sample. One pass over the samples (the list is
+    // large), every beam for each; a maximum does not depend on the order it is taken in.
+    let mut far = [0.0f64; SCAN_BEAMS];
+    for p in cut_samples() {
+        let (x, y) = (p[0] as f64, p[1] as f64);
+        let n2 = x * x + y * y;
+        for (f, &(c, s)) in far.iter_mut().zip(&directions) {
+            let t = c * x + s * y;
+            let q = t * t - n2 + radius * radius;
+            // Without a branch (a chord or none for each pair, unpredictably; the compiler
+            // vectorizes this): 0 never raises the maximum, which starts at 0, and no value is
+            // NaN (the root of a negative `q` is not taken) or −0.
+            let end = if q > 0.0 { t + q.sqrt() } else { 0.0 };
+            *f = if end > *f { end } else { *f };
+        }
+    }
+    far.map(|far| (far + 0.01).min(SCAN_MAX_RANGE as f64))
 });
+
+/// How many points along a beam, after the car, [`Episode::observe_near`] reads the clearance of
+/// before it casts the beam ([`OccupancyGrid::free_by_points_from`]).
+///
+/// [`OccupancyGrid::free_by_points_from`]: crate::world::map::OccupancyGrid::free_by_points_from
+const SCAN_FREE_POINTS: u32 = 2;
 
 /// The observation of a car in `scenario` whose projection onto the path is at arc length `s`,
 /// quantized to the protocol's wire steps (`protocol::quantize::quantize`: ranges in
@@ -416,7 +443,9 @@ fn observe_within(
         }
         let along = (cos * bc - sin * bs, sin * bc + cos * bs);
         // Free a cell beyond the cut: the cast would reach the cut (no cast needed).
-        if cut < SCAN_MAX_RANGE as f64 && map.free_from(&view, along, cut + map.resolution()) {
+        if cut < SCAN_MAX_RANGE as f64
+            && map.free_by_points_from(&view, along, cut + map.resolution(), SCAN_FREE_POINTS)
+        {
             scan.ranges[j] = SCAN_MAX_RANGE;
             continue;
         }
@@ -454,16 +483,24 @@ pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
 fn detect_from(scenario: &Scenario, pose: Pose, iso: &Isometry2<f64>) -> ObjectList {
     let p = pose.position();
     let slack = LOS_SLACK_CELLS * scenario.map.resolution();
-    let mut seen: Vec<(f64, usize)> = Vec::new();
+    // The MAX_OBJECTS nearest seen so far, in order (distance, then scenario order), kept by
+    // insertion: the first MAX_OBJECTS of all the seen ones sorted, without a list of them all.
+    let mut nearest = [(0.0f64, 0usize); MAX_OBJECTS];
+    let mut len = 0;
     for (i, o) in scenario.objects.iter().enumerate() {
         let (q, d) = o.nearest_point(&p);
         if d <= SENSOR_RANGE && scenario.map.line_of_sight((p.x, p.y), (q.x, q.y), slack) {
-            seen.push((d, i));
+            // Behind every one as near (they come earlier in the scenario).
+            let at = nearest[..len].partition_point(|n| n.0.total_cmp(&d).is_le());
+            if at < MAX_OBJECTS {
+                len = (len + 1).min(MAX_OBJECTS);
+                nearest.copy_within(at..len - 1, at + 1);
+                nearest[at] = (d, i);
+            }
         }
     }
-    seen.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
     let mut list = ObjectList::new();
-    for &(_, i) in seen.iter().take(MAX_OBJECTS) {
+    for &(_, i) in &nearest[..len] {
         let o = &scenario.objects[i];
         let (c, r) = o.disc_seen_from(&p);
         let local = iso.inverse_transform_point(&c);
@@ -610,6 +647,66 @@ mod tests {
         );
     }
 
+    #[test]
+    fn detections_are_the_nearest_of_all_seen_in_order() {
+        // Against the definition: every object seen, sorted by distance then scenario order, the
+        // first MAX_OBJECTS. Crowds of chairs on a coarse lattice (many equal distances), seen
+        // from many poses.
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut next = |n: u64| {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state % n
+        };
+        let (mut full, mut ties) = (0, 0);
+        for _ in 0..60 {
+            let count = 1 + next(25);
+            let objects: Vec<_> = (0..count)
+                .map(|_| chair(0.5 + 0.5 * next(18) as f64, 0.5 + 0.5 * next(10) as f64))
+                .collect();
+            let s = world(objects);
+            for _ in 0..20 {
+                let pose = Pose {
+                    x: 0.3 + 0.25 * next(36) as f64,
+                    y: 0.3 + 0.25 * next(22) as f64,
+                    theta: next(628) as f64 / 100.0,
+                };
+                let p = pose.position();
+                let slack = LOS_SLACK_CELLS * s.map.resolution();
+                let mut seen: Vec<(f64, usize)> = Vec::new();
+                for (i, o) in s.objects.iter().enumerate() {
+                    let (q, d) = o.nearest_point(&p);
+                    if d <= SENSOR_RANGE && s.map.line_of_sight((p.x, p.y), (q.x, q.y), slack) {
+                        seen.push((d, i));
+                    }
+                }
+                seen.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                let iso = pose.isometry();
+                let want: Vec<_> = seen
+                    .iter()
+                    .take(MAX_OBJECTS)
+                    .map(|&(_, i)| {
+                        let (c, _) = s.objects[i].disc_seen_from(&p);
+                        let l = iso.inverse_transform_point(&c);
+                        ((l.x as f32).to_bits(), (l.y as f32).to_bits())
+                    })
+                    .collect();
+                let got: Vec<_> = detect(&s, pose)
+                    .iter()
+                    .map(|o| (o.x.to_bits(), o.y.to_bits()))
+                    .collect();
+                assert_eq!(got, want, "{pose:?}");
+                full += usize::from(seen.len() > MAX_OBJECTS);
+                ties += usize::from(seen.windows(2).any(|w| w[0].0 == w[1].0));
+            }
+        }
+        assert!(
+            full > 50 && ties > 50,
+            "{full} with more than a list, {ties} with ties"
+        );
+    }
+
     /// The evaluation of `obs` and, for a few pairs, a perturbation's features in it, as text
     /// (`{:?}` tells −0 from +0: equal text is equal bits).
     fn seen(obs: &Observation) -> String {
@@ -624,6 +721,29 @@ mod tests {
             })
             .collect();
         format!("{evaluation:?} {deformed:?}")
+    }
+
+    #[test]
+    fn scan_cut_is_the_farthest_chord_end_over_every_sample() {
+        // The definition, every sample's root taken: the table skips the samples that cannot
+        // raise the maximum, and must give the same bits.
+        let points = cut_samples();
+        let radius = OBSTACLE_CLIP as f64 + CUT_MARGIN;
+        for j in 0..SCAN_BEAMS {
+            let (c, s) = beam_direction(j).unwrap();
+            let (c, s) = (c as f64, s as f64);
+            let far = points
+                .iter()
+                .filter_map(|p| {
+                    let (x, y) = (p[0] as f64, p[1] as f64);
+                    let t = c * x + s * y;
+                    let q = t * t - (x * x + y * y) + radius * radius;
+                    (q > 0.0).then(|| t + q.sqrt())
+                })
+                .fold(0.0, f64::max);
+            let want = (far + 0.01).min(SCAN_MAX_RANGE as f64);
+            assert_eq!(scan_cut(j).unwrap().to_bits(), want.to_bits(), "beam {j}");
+        }
     }
 
     #[test]

@@ -484,7 +484,7 @@ impl OccupancyGrid {
         // Free a cell beyond the reach: the cast would end at the reach (no cast needed). One
         // viewpoint for both.
         let view = self.viewpoint(a.0, a.1);
-        self.free_from(&view, along, reach + self.resolution)
+        self.free_by_points_from(&view, along, reach + self.resolution, 2)
             || self.raycast_from(&view, along, reach) >= reach
     }
 
@@ -517,6 +517,53 @@ impl OccupancyGrid {
     pub fn raycast_from(&self, view: &Viewpoint, along: (f64, f64), max_range: f64) -> f64 {
         let (gdx, gdy) = self.grid_direction(along);
         self.cast(view.gx, view.gy, gdx, gdy, max_range)
+    }
+
+    /// Whether every point of the segment from `view` along the unit vector `along` (world frame)
+    /// for `length` metres lies in a free cell, as far as the clearance of its start and of
+    /// `points` points spread evenly after it (the last at its end) tells (`false` when they do
+    /// not settle it): [`OccupancyGrid::free_by_its_ends`] with points between the ends too. Their
+    /// cells are read independently of each other, not one after another as a cast reads.
+    ///
+    /// Measured by `σ`, the Chebyshev distance from the start along the segment (in cells), a
+    /// point at `σᵢ` whose cell has clearance `cᵢ` shows every point of the segment within
+    /// `cᵢ − 1` of it (open) free, as in `free_by_its_ends`. Going from the start (`[0, c₀ − 1)`
+    /// free), each point's interval must begin below the end of the free stretch so far (10⁻⁶
+    /// cells of margin on each side, far above the rounding of the points' coordinates) and
+    /// extends it; the segment is free when the stretch passes its end. As for
+    /// `free_by_its_ends`, a cast along a segment this says is free, of at most
+    /// `length − resolution`, reaches its end.
+    #[inline]
+    pub fn free_by_points_from(
+        &self,
+        view: &Viewpoint,
+        along: (f64, f64),
+        length: f64,
+        points: u32,
+    ) -> bool {
+        const MARGIN: f64 = 1.0e-6;
+        let start = f64::from(view.clearance);
+        if start < 2.0 || points == 0 {
+            return false;
+        }
+        let (gdx, gdy) = self.grid_direction(along);
+        let cells = length / self.resolution;
+        let m = gdx.abs().max(gdy.abs());
+        // The free stretch so far: σ in [0, free).
+        let mut free = start - 1.0;
+        for i in 1..=points {
+            let at = cells * (f64::from(i) / f64::from(points));
+            let (x, y) = (view.gx + gdx * at, view.gy + gdy * at);
+            let c = self
+                .padded(floor_to_int(x), floor_to_int(y))
+                .map_or(0.0, |i| f64::from(self.clearance[i]));
+            let sigma = at * m;
+            if c < 1.0 || sigma - (c - 1.0) + MARGIN >= free - MARGIN {
+                return false;
+            }
+            free = free.max(sigma + (c - 1.0));
+        }
+        free > cells * m + MARGIN
     }
 
     /// [`OccupancyGrid::free_by_its_ends`] from `view`.
@@ -784,6 +831,79 @@ mod tests {
             }
         }
         assert!(free > tried / 10 && free < tried, "{free} of {tried}");
+    }
+
+    #[test]
+    fn a_segment_free_by_its_points_is_one_every_cast_along_it_crosses() {
+        use crate::world::registry::{SCENARIOS, load_scenario_unchecked};
+        let mut grids = vec![std::sync::Arc::new(room())];
+        // A grid turned by its origin's yaw, with a wall to pass.
+        grids.push(std::sync::Arc::new(OccupancyGrid::from_fn(
+            80,
+            60,
+            0.05,
+            [1.0, -2.0, 0.7],
+            |c, r| c == 0 || r == 0 || c == 79 || r == 59 || (c == 40 && r < 35),
+        )));
+        for s in SCENARIOS {
+            grids.push(load_scenario_unchecked(s.name).unwrap().map);
+        }
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let mut uniform = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // Per number of points: segments said free, and those the ends alone do not settle.
+        let mut free = [0u64; 5];
+        let mut beyond_the_ends = [0u64; 5];
+        let mut tried = 0u64;
+        for g in &grids {
+            let (w, h, o) = (
+                g.width() as f64 * g.resolution(),
+                g.height() as f64 * g.resolution(),
+                g.origin(),
+            );
+            let (yc, ys) = (libm::cos(o[2]), libm::sin(o[2]));
+            for _ in 0..20_000 {
+                let (u, v) = (uniform() * w, uniform() * h);
+                let (x, y) = (o[0] + u * yc - v * ys, o[1] + u * ys + v * yc);
+                let a = (uniform() - 0.5) * 2.0 * std::f64::consts::PI;
+                let along = (libm::cos(a), libm::sin(a));
+                let length = 0.05 + uniform() * 3.0;
+                let view = g.viewpoint(x, y);
+                tried += 1;
+                let ends = g.free_from(&view, along, length);
+                for points in 1..5u32 {
+                    if !g.free_by_points_from(&view, along, length, points) {
+                        continue;
+                    }
+                    free[points as usize] += 1;
+                    beyond_the_ends[points as usize] += u64::from(!ends);
+                    let reach = length - g.resolution();
+                    assert_eq!(
+                        g.raycast_from(&view, along, reach),
+                        reach,
+                        "({x}, {y}) at {a}, {points} points"
+                    );
+                    assert!(raycast_cell_by_cell(g, x, y, a, reach) >= reach - 1e-9);
+                    // Every point of it, a millimetre apart, is in a free cell.
+                    let mut s = 0.0;
+                    while s <= length {
+                        assert!(
+                            !g.is_blocked(x + s * along.0, y + s * along.1),
+                            "{s} m along, {points} points"
+                        );
+                        s += 0.001;
+                    }
+                }
+            }
+        }
+        assert!(
+            free[1] > tried / 10 && free[4] < tried && beyond_the_ends[2] > tried / 20,
+            "{tried} tried: {free:?} free, {beyond_the_ends:?} beyond the ends"
+        );
     }
 
     #[test]
