@@ -474,13 +474,7 @@ mod tests {
         use crate::world::registry::{SCENARIOS, load_scenario_unchecked};
         use firmware_core::{ActionIndex, MAX_ACTIONS};
         let p = CarParams::MUSHR;
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut uniform = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = crate::world::test_uniform(0x9E37_79B9_7F4A_7C15);
         let (mut clear, mut unclear, mut hit) = (0u32, 0u32, 0u32);
         for s in SCENARIOS {
             let map = load_scenario_unchecked(s.name).unwrap().map;

@@ -24,3 +24,15 @@ pub mod registry;
 pub mod scenario;
 pub mod sim;
 pub mod teacher;
+
+/// The tests' uniform numbers in `[0, 1)`: xorshift64 from `seed` (not zero), 53 bits a number.
+#[cfg(test)]
+pub(crate) fn test_uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    }
+}

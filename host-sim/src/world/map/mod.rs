@@ -710,13 +710,7 @@ mod tests {
             grids.push(load_scenario_unchecked(s.name).unwrap().map);
         }
         let (mut rays, mut jumped) = (0u64, 0u64);
-        let mut state = 0x9E37_79B9_7F4A_7C15u64;
-        let mut uniform = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut uniform = crate::world::test_uniform(0x9E37_79B9_7F4A_7C15);
         for g in &grids {
             let (w, h) = (
                 g.width() as f64 * g.resolution(),
@@ -771,11 +765,11 @@ mod tests {
         );
     }
 
-    #[test]
-    fn a_segment_free_by_its_ends_is_one_every_cast_along_it_crosses() {
+    /// The room, a grid turned by its origin's yaw with a wall to pass (the segment tests work in
+    /// the grid's frame) and every built-in scenario's map.
+    fn segment_test_grids() -> Vec<std::sync::Arc<OccupancyGrid>> {
         use crate::world::registry::{SCENARIOS, load_scenario_unchecked};
         let mut grids = vec![std::sync::Arc::new(room())];
-        // A grid turned by its origin's yaw: the test works in the grid's frame.
         grids.push(std::sync::Arc::new(OccupancyGrid::from_fn(
             80,
             60,
@@ -786,27 +780,37 @@ mod tests {
         for s in SCENARIOS {
             grids.push(load_scenario_unchecked(s.name).unwrap().map);
         }
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut uniform = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        grids
+    }
+
+    /// A segment of the segment tests: a start uniform over the grid's rectangle, a direction
+    /// `a` (and its unit vector) uniform over the circle, a length of 0.05 to 3.05 m.
+    fn random_segment(
+        g: &OccupancyGrid,
+        uniform: &mut impl FnMut() -> f64,
+    ) -> (f64, f64, f64, (f64, f64), f64) {
+        let (w, h, o) = (
+            g.width() as f64 * g.resolution(),
+            g.height() as f64 * g.resolution(),
+            g.origin(),
+        );
+        let (yc, ys) = (libm::cos(o[2]), libm::sin(o[2]));
+        let (u, v) = (uniform() * w, uniform() * h);
+        let (x, y) = (o[0] + u * yc - v * ys, o[1] + u * ys + v * yc);
+        let a = (uniform() - 0.5) * 2.0 * std::f64::consts::PI;
+        let along = (libm::cos(a), libm::sin(a));
+        let length = 0.05 + uniform() * 3.0;
+        (x, y, a, along, length)
+    }
+
+    #[test]
+    fn a_segment_free_by_its_ends_is_one_every_cast_along_it_crosses() {
+        let grids = segment_test_grids();
+        let mut uniform = crate::world::test_uniform(0x2545_F491_4F6C_DD1D);
         let (mut free, mut tried) = (0u64, 0u64);
         for g in &grids {
-            let (w, h, o) = (
-                g.width() as f64 * g.resolution(),
-                g.height() as f64 * g.resolution(),
-                g.origin(),
-            );
-            let (yc, ys) = (libm::cos(o[2]), libm::sin(o[2]));
             for _ in 0..20_000 {
-                let (u, v) = (uniform() * w, uniform() * h);
-                let (x, y) = (o[0] + u * yc - v * ys, o[1] + u * ys + v * yc);
-                let a = (uniform() - 0.5) * 2.0 * std::f64::consts::PI;
-                let along = (libm::cos(a), libm::sin(a));
-                let length = 0.05 + uniform() * 3.0;
+                let (x, y, a, along, length) = random_segment(g, &mut uniform);
                 tried += 1;
                 if !g.free_by_its_ends(x, y, along, length) {
                     continue;
@@ -835,43 +839,15 @@ mod tests {
 
     #[test]
     fn a_segment_free_by_its_points_is_one_every_cast_along_it_crosses() {
-        use crate::world::registry::{SCENARIOS, load_scenario_unchecked};
-        let mut grids = vec![std::sync::Arc::new(room())];
-        // A grid turned by its origin's yaw, with a wall to pass.
-        grids.push(std::sync::Arc::new(OccupancyGrid::from_fn(
-            80,
-            60,
-            0.05,
-            [1.0, -2.0, 0.7],
-            |c, r| c == 0 || r == 0 || c == 79 || r == 59 || (c == 40 && r < 35),
-        )));
-        for s in SCENARIOS {
-            grids.push(load_scenario_unchecked(s.name).unwrap().map);
-        }
-        let mut state = 0x2545_F491_4F6C_DD1Du64;
-        let mut uniform = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let grids = segment_test_grids();
+        let mut uniform = crate::world::test_uniform(0x2545_F491_4F6C_DD1D);
         // Per number of points: segments said free, and those the ends alone do not settle.
         let mut free = [0u64; 5];
         let mut beyond_the_ends = [0u64; 5];
         let mut tried = 0u64;
         for g in &grids {
-            let (w, h, o) = (
-                g.width() as f64 * g.resolution(),
-                g.height() as f64 * g.resolution(),
-                g.origin(),
-            );
-            let (yc, ys) = (libm::cos(o[2]), libm::sin(o[2]));
             for _ in 0..20_000 {
-                let (u, v) = (uniform() * w, uniform() * h);
-                let (x, y) = (o[0] + u * yc - v * ys, o[1] + u * ys + v * yc);
-                let a = (uniform() - 0.5) * 2.0 * std::f64::consts::PI;
-                let along = (libm::cos(a), libm::sin(a));
-                let length = 0.05 + uniform() * 3.0;
+                let (x, y, a, along, length) = random_segment(g, &mut uniform);
                 let view = g.viewpoint(x, y);
                 tried += 1;
                 let ends = g.free_from(&view, along, length);
