@@ -424,6 +424,10 @@ impl Tracker {
         for i in 0..SAMPLES {
             let (rx, ry) = (at.x - g.ax[i], at.y - g.ay[i]);
             let q = (rx * g.dx[i] + ry * g.dy[i]) / g.len2[i];
+            // `q.clamp(0.0, 1.0)` written out: the same values (NaN included), but with
+            // `clamp` the loop is not vectorized (measured: 58 020 against 56 220 instructions
+            // a step of `host-sim bench`, callgrind).
+            #[allow(clippy::manual_clamp)]
             let clamped = if q < 0.0 {
                 0.0
             } else if q > 1.0 {
