@@ -303,12 +303,15 @@ struct Stretch {
 }
 
 /// The teacher's side of a run beyond one tick: which kind each correction takes, the stretch
-/// a span teacher watches, and a mirror of the ticks the car holds (for spans and for
-/// [`Informativeness`]).
+/// a span teacher watches, and, when it can label spans, a mirror of the ticks the car holds
+/// (the spans' [`Informativeness`] is measured on them).
 #[derive(Clone, Debug)]
 pub struct Tutor {
     teaching: Teaching,
     watching: Option<Stretch>,
+    /// Whether this teaching can label a span, the only feedback about ticks before the
+    /// current one: otherwise no tick is held (a copy of every judgement saved).
+    spans: bool,
     held: VecDeque<Held>,
 }
 
@@ -356,13 +359,39 @@ fn perceived_alpha(fb: &Feedback, j: &Judgement, chosen: ActionIndex) -> f32 {
     }
 }
 
+/// How informative `fb` was about the tick `j` judged, where the learner chose `chosen` (given
+/// at step `now`).
+fn measure(
+    now: u32,
+    kind: FeedbackKind,
+    fb: &Feedback,
+    j: &Judgement,
+    chosen: ActionIndex,
+) -> Option<Informativeness> {
+    let delta = delta_of(fb, j, chosen)?;
+    let (mean, worst) = over_minimisers(&delta, j, &j.latent)?;
+    Some(Informativeness {
+        step: now,
+        kind,
+        chosen: j.latent[chosen.get()],
+        mean,
+        worst,
+    })
+}
+
 impl Tutor {
     /// A tutor for `teaching`, holding no tick.
     pub fn new(teaching: Teaching) -> Self {
+        let spans = match teaching {
+            Teaching::Kind(k) => k == FeedbackKind::Span,
+            Teaching::Mix(m) => m.weight(FeedbackKind::Span) > 0.0,
+            Teaching::Cheapest => true,
+        };
         Self {
             teaching,
             watching: None,
-            held: VecDeque::with_capacity(TICK_HISTORY),
+            spans,
+            held: VecDeque::with_capacity(if spans { TICK_HISTORY } else { 0 }),
         }
     }
 
@@ -380,7 +409,7 @@ impl Tutor {
         if self.held.len() == TICK_HISTORY {
             self.held.pop_front();
         }
-        if let Some(a) = action {
+        if let Some(a) = action.filter(|_| self.spans) {
             self.held.push_back(Held {
                 tick,
                 judgement: j.clone(),
@@ -431,7 +460,7 @@ impl Tutor {
             self.watching = Some(s);
             return (None, Vec::new());
         }
-        let info = self.measure(tick, kind, &fb, tick).into_iter().collect();
+        let info = measure(tick, kind, &fb, j, a).into_iter().collect();
         (
             Some(Given {
                 tick,
@@ -453,7 +482,7 @@ impl Tutor {
             .held
             .iter()
             .filter(|h| span.covers(s.last, h.tick))
-            .filter_map(|h| self.measure(now, FeedbackKind::Span, &fb, h.tick))
+            .filter_map(|h| measure(now, FeedbackKind::Span, &fb, &h.judgement, h.chosen))
             .collect();
         (
             Some(Given {
@@ -463,27 +492,6 @@ impl Tutor {
             }),
             info,
         )
-    }
-
-    /// How informative `fb` was about held tick `about` (given at step `now`).
-    fn measure(
-        &self,
-        now: u32,
-        kind: FeedbackKind,
-        fb: &Feedback,
-        about: u32,
-    ) -> Option<Informativeness> {
-        let h = self.held.iter().find(|h| h.tick == about)?;
-        let j = &h.judgement;
-        let delta = delta_of(fb, j, h.chosen)?;
-        let (mean, worst) = over_minimisers(&delta, j, &j.latent)?;
-        Some(Informativeness {
-            step: now,
-            kind,
-            chosen: j.latent[h.chosen.get()],
-            mean,
-            worst,
-        })
     }
 
     /// The cost-aware teacher's choice (see the module documentation).
