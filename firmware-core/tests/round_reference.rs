@@ -149,6 +149,17 @@ fn grid(rng: &mut ChaCha8Rng) -> f32 {
     }
 }
 
+/// A table of [`grid`] values.
+fn grid_table(rng: &mut ChaCha8Rng) -> FeatureTable {
+    let mut table = FeatureTable::ZERO;
+    for row in table.rows_mut() {
+        for x in row.iter_mut() {
+            *x = grid(rng);
+        }
+    }
+    table
+}
+
 fn random_mask(rng: &mut ChaCha8Rng) -> ActionMask {
     let bits = match rng.random_range(0..4u32) {
         0 => u64::MAX,
@@ -208,12 +219,7 @@ fn the_round_is_bit_for_bit_its_reference() {
     let mut rng = ChaCha8Rng::seed_from_u64(17);
     let (mut checked, mut refused) = (0, 0);
     for _ in 0..40_000 {
-        let mut table = FeatureTable::ZERO;
-        for row in table.rows_mut() {
-            for x in row.iter_mut() {
-                *x = grid(&mut rng);
-            }
-        }
+        let table = grid_table(&mut rng);
         let mask = random_mask(&mut rng);
         let chosen = pick(&mut rng, mask);
         let w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
@@ -272,12 +278,7 @@ fn the_round_is_bit_for_bit_its_reference() {
 fn a_pseudo_loss_of_another_round_finds_the_same_target() {
     let mut rng = ChaCha8Rng::seed_from_u64(18);
     for _ in 0..5_000 {
-        let mut table = FeatureTable::ZERO;
-        for row in table.rows_mut() {
-            for x in row.iter_mut() {
-                *x = grid(&mut rng);
-            }
-        }
+        let table = grid_table(&mut rng);
         let (m1, m2) = (random_mask(&mut rng), random_mask(&mut rng));
         let w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
         let first = Round::new(&table, m1, pick(&mut rng, m1)).unwrap();
@@ -389,12 +390,7 @@ fn a_round_with_its_scores_is_bit_for_bit_its_reference() {
     let mut rng = ChaCha8Rng::seed_from_u64(21);
     let mut checked = 0;
     for _ in 0..20_000 {
-        let mut table = FeatureTable::ZERO;
-        for row in table.rows_mut() {
-            for x in row.iter_mut() {
-                *x = grid(&mut rng);
-            }
-        }
+        let table = grid_table(&mut rng);
         let mask = random_mask(&mut rng);
         let w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
         let other: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
