@@ -105,9 +105,9 @@ fn bench_update(c: &mut Criterion) {
 /// The round the car runs when a correction arrives for the tick it just acted in: select over
 /// 64 actions keeping their scores, then one update, with the default learner (averaged OGD),
 /// the round carrying its path reference as the agent's do (a statement about the path needs it)
-/// and select's scores (which the agent's rounds do not carry: `Round::with_scores`); and in the
-/// same group, the 64 × 6 dot products of the acting weights with the table that any round must
-/// do once. The learner has taken a few steps first, so that its raw iterate (where action
+/// and select's scores (`Round::with_scores`, as the agent's do off the car); and in the same
+/// group, the 64 × 6 dot products of the acting weights with the table that any round must do
+/// once. The learner has taken a few steps first, so that its raw iterate (where action
 /// feedback is linearized) is not its average (where it acts): a fresh learner's are the same
 /// weights, and select's scores would serve action feedback too.
 fn bench_round(c: &mut Criterion) {
