@@ -92,7 +92,10 @@ pub fn target(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> ActionIndex
         let table = round.features();
         return best_among(ActionMask::from_bits(zeros), |a| dot(w, &table[a]));
     }
-    target_of(&scores(w, round), round, delta)
+    match round.scores_at(w) {
+        Some(scores) => target_of(scores, round, delta),
+        None => target_of(&scores(w, round), round, delta),
+    }
 }
 
 /// The action of highest score among `among` (not empty), lowest index on ties: `target_of`'s
@@ -117,13 +120,9 @@ fn best_among(among: ActionMask, score: impl Fn(ActionIndex) -> f32) -> ActionIn
     best
 }
 
-/// The score `w · φ(a)` of every allowed action (forbidden ones are never read): the scores the
-/// round carries when they are at `w`, else every action's in one pass on a [`policy::WIDE`]
-/// target, else the allowed actions' one by one.
+/// The score `w · φ(a)` of every allowed action (forbidden ones are never read): every action's
+/// in one pass on a [`policy::WIDE`] target, else the allowed actions' one by one.
 fn scores(w: &Weights, round: &Round<'_>) -> [f32; MAX_ACTIONS] {
-    if let Some(scores) = round.scores_at(w) {
-        return *scores;
-    }
     if policy::WIDE {
         return policy::all_scores(w, round.features());
     }
