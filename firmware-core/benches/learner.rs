@@ -9,7 +9,8 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use firmware_core::observation::PathReference;
 use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, Feature, FeatureTable, Feedback, Learner, LearnerKind,
-    LearnerParams, OnlineLearner, PreferenceFeedback, Round, SemanticFeedback, dot, policy,
+    LearnerParams, MAX_ACTIONS, OnlineLearner, PreferenceFeedback, Round, SemanticFeedback, dot,
+    policy,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -102,18 +103,31 @@ fn bench_update(c: &mut Criterion) {
 }
 
 /// The round the car runs when a correction arrives for the tick it just acted in: select over
-/// 64 actions, then one update, with the default learner (averaged OGD), the round carrying its
-/// path reference as the agent's do (a statement about the path needs it); and in the same group,
-/// the 64 × 6 dot products of the acting weights with the table that any round must do once.
+/// 64 actions keeping their scores, then one update, with the default learner (averaged OGD),
+/// the round carrying its path reference as the agent's do (a statement about the path needs it)
+/// and select's scores (`Round::with_scores`, as the agent's do off the car); and in the same
+/// group, the 64 × 6 dot products of the acting weights with the table that any round must do
+/// once. The learner has taken a few steps first, so that its raw iterate (where action
+/// feedback is linearized) is not its average (where it acts): a fresh learner's are the same
+/// weights, and select's scores would serve action feedback too.
 fn bench_round(c: &mut Criterion) {
     let t = table(3);
     let a = |i| ActionIndex::new(i).unwrap();
-    let learner = Learner::new(
+    let mut learner = Learner::new(
         LearnerParams::default()
             .with_initial([0.3, -0.2, 0.9, 0.1, -0.7, 0.4])
             .check()
             .unwrap(),
     );
+    let warm = table(4);
+    for i in [5, 23, 41] {
+        let chosen = learner.select(&warm, ActionMask::ALL).unwrap();
+        let round = Round::new(&warm, ActionMask::ALL, chosen).unwrap();
+        learner
+            .learn(&round, &ActionFeedback { action: a(i) })
+            .unwrap();
+    }
+    assert_ne!(learner.state().iterate, learner.state().average);
     let mut group = c.benchmark_group("round");
     group.bench_function("dot-products", |b| {
         b.iter(|| {
@@ -150,10 +164,14 @@ fn bench_round(c: &mut Criterion) {
             b.iter(|| {
                 let mut l = black_box(learner);
                 let table = black_box(&t);
-                let chosen = l.select(table, ActionMask::ALL).unwrap();
+                let mut scores = [0.0f32; MAX_ACTIONS];
+                let chosen =
+                    policy::select_scored(l.weights(), table, ActionMask::ALL, &mut scores)
+                        .unwrap();
                 let round = Round::new(table, ActionMask::ALL, chosen)
                     .and_then(|r| r.with_reference(AHEAD))
-                    .unwrap();
+                    .unwrap()
+                    .with_scores(l.weights(), &scores);
                 l.learn(&round, black_box(fb)).unwrap();
                 l
             })

@@ -83,6 +83,22 @@ struct TickRecord {
     /// error of each trajectory's end against it (12 bytes, where a second feature table
     /// would take 1.5 KiB).
     reference: PathReference,
+    /// Select's scores in the tick, off the car.
+    #[cfg(not(target_arch = "arm"))]
+    scored: Scored,
+}
+
+/// Select's scores of every allowed action in a tick and the weights they are of: a feedback
+/// about the tick learned at weights of the same bits (relative feedback, while no other
+/// feedback has moved the learner) takes them instead of scoring the table again
+/// ([`Round::with_scores`]). Kept on the host (its simulated cars); the car
+/// (`target_arch = "arm"`) keeps no room for them (1 KiB of RAM for four ticks, and a store per
+/// action in every tick's select) and scores the table again.
+#[cfg(not(target_arch = "arm"))]
+#[derive(Clone, Debug)]
+struct Scored {
+    weights: crate::feature::Weights,
+    scores: [f32; crate::action::MAX_ACTIONS],
 }
 
 impl TickRecord {
@@ -96,12 +112,17 @@ impl TickRecord {
             y: 0.0,
             heading: 0.0,
         },
+        #[cfg(not(target_arch = "arm"))]
+        scored: Scored {
+            weights: [0.0; crate::feature::FEATURE_COUNT],
+            scores: [0.0; crate::action::MAX_ACTIONS],
+        },
     };
 }
 
 /// Learner and recent ticks: everything the car keeps between ticks, 6 392 bytes (the
 /// evaluator's 3 840 bytes of scratch live on the stack of [`Agent::act`], during the
-/// evaluation only).
+/// evaluation only; off the car each tick also keeps select's scores, 1 KiB more).
 ///
 /// [`Agent::new`] is a `const fn`, so firmware can place an agent in a `static` (for example a
 /// `static_cell::ConstStaticCell`) without building it on the stack first.
@@ -182,6 +203,18 @@ impl Agent {
             ..
         } = self;
         let record = &mut history[slot];
+        #[cfg(not(target_arch = "arm"))]
+        let action = {
+            let scored = &mut record.scored;
+            scored.weights = *learner.weights();
+            crate::policy::select_scored(
+                &scored.weights,
+                &record.features,
+                allowed,
+                &mut scored.scores,
+            )
+        };
+        #[cfg(target_arch = "arm")]
         let action = learner.select(&record.features, allowed);
         match action {
             Some(chosen) => {
@@ -313,6 +346,8 @@ fn learn_at(
     let round = Round::new(&record.features, record.allowed, record.chosen)
         .and_then(|r| r.with_reference(record.reference))
         .map_err(FeedbackError::Learn)?;
+    #[cfg(not(target_arch = "arm"))]
+    let round = round.with_scores(&record.scored.weights, &record.scored.scores);
     learner
         .learn(&round, feedback)
         .map_err(FeedbackError::Learn)

@@ -70,8 +70,9 @@ use serde::{Deserialize, Serialize};
 use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
 use crate::error::LearnError;
 use crate::evaluator::cross_track_errors;
-use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
+use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features, Weights};
 use crate::observation::{PathReference, REFERENCE_COORDINATE_BOUND};
+use crate::policy::WIDE;
 
 /// `Δ` of every action but the teacher's, for action feedback (the paper's value).
 pub const WRONG_ACTION_LOSS: f32 = 100.0;
@@ -83,14 +84,22 @@ pub const SEMANTIC_LOSS: f32 = 100.0;
 pub const PSEUDO_LOSS_BOUND: f32 = 1.0e6;
 
 /// The learner's side of one round: the features of the tick, the allowed actions, the action
-/// the learner chose and, when known, the tick's path reference. Feedback is always judged
-/// against a round.
+/// the learner chose and, when known, the tick's path reference and the scores the choice was
+/// made with. Feedback is always judged against a round.
 #[derive(Clone, Copy, Debug)]
 pub struct Round<'a> {
     features: &'a FeatureTable,
     allowed: ActionMask,
     chosen: ActionIndex,
     reference: Option<PathReference>,
+    scored: Option<Scored<'a>>,
+}
+
+/// Scores of a round's allowed actions and the weights they are of.
+#[derive(Clone, Copy, Debug)]
+struct Scored<'a> {
+    weights: Weights,
+    scores: &'a [f32; MAX_ACTIONS],
 }
 
 impl<'a> Round<'a> {
@@ -113,7 +122,34 @@ impl<'a> Round<'a> {
             allowed,
             chosen,
             reference: None,
+            scored: None,
         })
+    }
+
+    /// The round with the scores `w · φ(a)` of its allowed actions at the weights `w` (what
+    /// [`crate::policy::select_scored`] keeps while it chooses): the surrogate takes them instead
+    /// of scoring the table again when it is evaluated at weights of the same bits (for the
+    /// averaged learner, relative feedback, linearized at the weights that chose), and scores the
+    /// table itself at any other weights. Each allowed entry must be `dot(w, φ(a))` of this
+    /// round's table, as `select_scored` leaves it; forbidden entries are never read.
+    pub fn with_scores(mut self, w: &Weights, scores: &'a [f32; MAX_ACTIONS]) -> Self {
+        self.scored = Some(Scored {
+            weights: *w,
+            scores,
+        });
+        self
+    }
+
+    /// The scores the round carries, when they are at weights of the same bits as `w`.
+    #[inline]
+    pub(crate) fn scores_at(&self, w: &Weights) -> Option<&'a [f32; MAX_ACTIONS]> {
+        let scored = self.scored.as_ref()?;
+        let same = scored
+            .weights
+            .iter()
+            .zip(w)
+            .all(|(x, y)| x.to_bits() == y.to_bits());
+        same.then_some(scored.scores)
     }
 
     /// The round with the tick's path reference (from its observation), which statements about
@@ -228,12 +264,16 @@ impl PseudoLoss {
         let mut lanes = [f32::INFINITY; 8];
         const _: () = assert!(MAX_ACTIONS.is_multiple_of(8));
         for (k, chunk) in values.as_chunks::<8>().0.iter().enumerate() {
-            let byte = (bits >> (8 * k)) as u8;
             for j in 0..8 {
-                let here = byte >> j & 1 == 1;
+                let here = lane(bits, k, j);
                 let v = chunk[j];
                 good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
-                lanes[j] = if here && v < lanes[j] { v } else { lanes[j] };
+                let lower = if WIDE {
+                    here & (v < lanes[j])
+                } else {
+                    here && v < lanes[j]
+                };
+                lanes[j] = if lower { v } else { lanes[j] };
             }
         }
         if !good {
@@ -252,16 +292,22 @@ impl PseudoLoss {
             return Err(LearnError::NoAllowedAction);
         }
         // `v − min` is 0 exactly when `v == min` (finite values: no underflow to 0 on the way).
-        let mut zeros = 0u64;
+        let (mut zeros, mut bytes) = (0u64, [0u8; MAX_ACTIONS / 8]);
         for (k, chunk) in values.as_chunks_mut::<8>().0.iter_mut().enumerate() {
-            let byte = (bits >> (8 * k)) as u8;
             let mut z = 0u8;
             for (j, v) in chunk.iter_mut().enumerate() {
-                let here = byte >> j & 1 == 1;
+                let here = lane(bits, k, j);
                 z |= ((!here | (*v == min)) as u8) << j;
                 *v = if here { *v - min } else { 0.0 };
             }
-            zeros |= (z as u64) << (8 * k);
+            if WIDE {
+                bytes[k] = z;
+            } else {
+                zeros |= (z as u64) << (8 * k);
+            }
+        }
+        if WIDE {
+            zeros = u64::from_le_bytes(bytes);
         }
         self.zeros = split(zeros);
         Ok(())
@@ -299,6 +345,19 @@ impl Index<ActionIndex> for PseudoLoss {
     #[inline]
     fn index(&self, a: ActionIndex) -> &f32 {
         &self.values[a.get()]
+    }
+}
+
+/// Whether bit `8k + j` of `bits` is set, `j < 8`. On a [`WIDE`] target as a bit of a 32-bit word,
+/// which the compiler tests in every lane of a vector at once (and the running minima without a
+/// branch, the zero bits gathered as bytes), where the bits of a byte become byte lanes widened
+/// in steps; on the car as a bit of the byte, the code it has always run.
+#[inline(always)]
+fn lane(bits: u64, k: usize, j: usize) -> bool {
+    if WIDE {
+        (bits >> (8 * k)) as u32 & 1 << j != 0
+    } else {
+        (bits >> (8 * k)) as u8 >> j & 1 == 1
     }
 }
 
@@ -412,12 +471,18 @@ pub struct PreferenceFeedback {
 /// Euclidean distance `‖x − y‖`, summed from index 0.
 #[inline]
 pub(crate) fn distance(x: &Features, y: &Features) -> f32 {
+    libm::sqrtf(squared_distance(x, y))
+}
+
+/// `‖x − y‖²`, summed from index 0 ([`distance`] before its root).
+#[inline(always)]
+fn squared_distance(x: &Features, y: &Features) -> f32 {
     let mut s = 0.0f32;
     for i in 0..FEATURE_COUNT {
         let d = x[i] - y[i];
         s += d * d;
     }
-    libm::sqrtf(s)
+    s
 }
 
 impl PseudoLossSource for PreferenceFeedback {
@@ -433,9 +498,25 @@ impl PseudoLossSource for PreferenceFeedback {
         round.require_allowed(self.other)?;
         let p = round.phi(self.preferred);
         let np = round.phi(self.other);
-        for a in round.allowed() {
-            let phi = round.phi(a);
-            out[a.get()] = distance(p, phi) - distance(np, phi);
+        if !WIDE {
+            for a in round.allowed() {
+                let phi = round.phi(a);
+                out[a.get()] = distance(p, phi) - distance(np, phi);
+            }
+            return Ok(());
+        }
+        // Every action's entry, allowed or not (a forbidden one is never read): the squares side
+        // by side, then the roots (`libm::sqrtf`, one instruction that the compiler cannot put
+        // side by side on x86-64), each entry as `distance` computes it.
+        let rows = round.features().rows();
+        let mut to_p = [0.0f32; MAX_ACTIONS];
+        let mut to_np = [0.0f32; MAX_ACTIONS];
+        for i in 0..MAX_ACTIONS {
+            to_p[i] = squared_distance(p, &rows[i]);
+            to_np[i] = squared_distance(np, &rows[i]);
+        }
+        for i in 0..MAX_ACTIONS {
+            out[i] = libm::sqrtf(to_p[i]) - libm::sqrtf(to_np[i]);
         }
         Ok(())
     }
@@ -561,16 +642,22 @@ impl PseudoLossSource for SemanticFeedback {
             )),
             None => None,
         };
-        for a in round.allowed() {
-            out[a.get()] = 0.0;
+        // On a wide target every action's entry, allowed or not (a forbidden one is never read).
+        if WIDE {
+            out.fill(0.0);
+        } else {
+            for a in round.allowed() {
+                out[a.get()] = 0.0;
+            }
         }
+        let rows = round.features().rows();
         for s in self.statements() {
             let higher = s.wants_higher();
             match (&cross, s.subject) {
-                (Some(cross), Feature::Path) => add_fails(round, higher, out, |a| cross[a.get()]),
+                (Some(cross), Feature::Path) => add_fails(round, higher, out, |a| cross[a]),
                 (_, subject) => {
                     let f = subject.index();
-                    add_fails(round, higher, out, |a| round.phi(a)[f])
+                    add_fails(round, higher, out, |a| rows[a][f])
                 }
             }
         }
@@ -580,16 +667,17 @@ impl PseudoLossSource for SemanticFeedback {
 
 /// Adds [`SEMANTIC_LOSS`] to `out` for every allowed action that does not do strictly better
 /// than the learner's choice on `quantity` (higher or lower, as the statement wants), and 0 to
-/// the others: without a branch, and the same bits (`x + 0 = x` for the `x ≥ 0` here).
+/// the others: without a branch, and the same bits (`x + 0 = x` for the `x ≥ 0` here). On a
+/// [`WIDE`] target, every action, allowed or not, side by side.
 #[inline(always)]
 fn add_fails(
     round: &Round<'_>,
     higher: bool,
     out: &mut [f32; MAX_ACTIONS],
-    quantity: impl Fn(ActionIndex) -> f32,
+    quantity: impl Fn(usize) -> f32,
 ) {
-    let reference = quantity(round.chosen());
-    for a in round.allowed() {
+    let reference = quantity(round.chosen().get());
+    let add = |out: &mut [f32; MAX_ACTIONS], a: usize| {
         let v = quantity(a);
         // `v > reference` or `v < reference`.
         let (x, y) = if higher {
@@ -597,7 +685,16 @@ fn add_fails(
         } else {
             (reference, v)
         };
-        out[a.get()] += if x > y { 0.0 } else { SEMANTIC_LOSS };
+        out[a] += if x > y { 0.0 } else { SEMANTIC_LOSS };
+    };
+    if WIDE {
+        for a in 0..MAX_ACTIONS {
+            add(out, a);
+        }
+    } else {
+        for a in round.allowed() {
+            add(out, a.get());
+        }
     }
 }
 

@@ -79,8 +79,8 @@
 //! ## Memory and time
 //!
 //! Nothing is allocated; everything lives in the caller's statics or stack. An [`agent::Agent`]
-//! is 6 392 bytes: the learner (under 100 B) and the feature tables of the last four ticks
-//! (1.5 KiB each). Its evaluation takes a fresh evaluator's scratch (3 840 bytes) on the stack,
+//! is 6 392 bytes on the car: the learner (under 100 B) and the feature tables of the last four
+//! ticks (1.5 KiB each); off the car each tick also keeps select's 64 scores. Its evaluation takes a fresh evaluator's scratch (3 840 bytes) on the stack,
 //! for the evaluation only. The lattice and the evaluator's precomputed tables are `static` data
 //! in flash.
 //!

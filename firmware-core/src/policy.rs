@@ -34,20 +34,132 @@ pub fn scores(
     }
 }
 
+/// Whether the target computes several `f32`s side by side (x86-64's SSE2, AArch64's NEON): the
+/// learner's passes over the actions then run over all [`MAX_ACTIONS`] without a test or a branch
+/// per action, which the compiler vectorises. On the car's Cortex-M4F (one `f32` at a time,
+/// cheap branches) they run over the allowed actions one by one. Each action's numbers come
+/// from the same operations in the same order either way: the same bits.
+pub(crate) const WIDE: bool = !cfg!(target_arch = "arm");
+
 /// The allowed action of highest score, lowest index on ties; `None` when nothing is allowed.
 ///
 /// With finite weights and a checked table (see [`FeatureTable::check`]) no score is NaN, so
 /// the result is the exact argmax.
 pub fn select(w: &Weights, table: &FeatureTable, allowed: ActionMask) -> Option<ActionIndex> {
-    let mut best: Option<(ActionIndex, f32)> = None;
-    for a in allowed {
+    if WIDE {
+        return select_among(&all_scores(w, table), allowed);
+    }
+    select_keeping(w, table, allowed, |_, _| {})
+}
+
+/// [`select`], keeping the score of every allowed action in `scores` (on a [`WIDE`] target every
+/// action's, a forbidden one's never to be read; on the car the forbidden entries are left
+/// untouched): a round that carries them ([`crate::Round::with_scores`]) takes them instead of
+/// scoring the table again when it learns at the same weights.
+pub fn select_scored(
+    w: &Weights,
+    table: &FeatureTable,
+    allowed: ActionMask,
+    scores: &mut [f32; MAX_ACTIONS],
+) -> Option<ActionIndex> {
+    if WIDE {
+        *scores = all_scores(w, table);
+        return select_among(scores, allowed);
+    }
+    select_keeping(w, table, allowed, |a, s| scores[a.get()] = s)
+}
+
+/// [`select`] one action at a time, handing each score to `keep` as it is computed.
+#[inline(always)]
+fn select_keeping(
+    w: &Weights,
+    table: &FeatureTable,
+    allowed: ActionMask,
+    mut keep: impl FnMut(ActionIndex, f32),
+) -> Option<ActionIndex> {
+    choose(allowed.iter().map(|a| {
         let s = score(w, table, a);
+        keep(a, s);
+        (a, s)
+    }))
+}
+
+/// The first of the highest scores, as [`select`] compares them one by one: the first is taken,
+/// and every later one that is not at most the best so far (a NaN takes its place, and is
+/// replaced by whatever follows).
+#[inline(always)]
+fn choose(scored: impl Iterator<Item = (ActionIndex, f32)>) -> Option<ActionIndex> {
+    let mut best: Option<(ActionIndex, f32)> = None;
+    for (a, s) in scored {
         match best {
             Some((_, b)) if s <= b => {}
             _ => best = Some((a, s)),
         }
     }
     best.map(|(a, _)| a)
+}
+
+/// [`select`] from every allowed action's score: [`first_max`], or the comparisons one by one
+/// when a score is NaN (where the two differ).
+#[inline(always)]
+fn select_among(scores: &[f32; MAX_ACTIONS], allowed: ActionMask) -> Option<ActionIndex> {
+    match first_max(scores, allowed) {
+        (best, false) => best.map(|(a, _)| a),
+        (_, true) => choose(allowed.iter().map(|a| (a, scores[a.get()]))),
+    }
+}
+
+/// The score of every action, allowed or not, in index order: one pass over the whole table
+/// without a test per action, which the compiler vectorises on a [`WIDE`] target (several actions
+/// side by side, each summed in [`dot`]'s order: the same bits as [`score`]). A forbidden
+/// action's row is not checked ([`FeatureTable::check`]): its score is whatever it is, never read.
+#[inline]
+pub(crate) fn all_scores(w: &Weights, table: &FeatureTable) -> [f32; MAX_ACTIONS] {
+    let mut out = [0.0f32; MAX_ACTIONS];
+    for (s, row) in out.iter_mut().zip(table.rows()) {
+        *s = dot(w, row);
+    }
+    out
+}
+
+/// The first allowed action whose value is the largest of the allowed ones that are not NaN, and
+/// that value (`None` when every allowed value is NaN or nothing is allowed); and whether some
+/// allowed value is NaN. This is where a running maximum in index order (`if v > best`) ends,
+/// NaNs passed over; here the maximum runs in eight running maxima side by side, then every value
+/// is compared with it (a zero of either sign equals the other) and the first allowed one found
+/// equal is the answer: both passes without a branch, which the compiler vectorises on a [`WIDE`]
+/// target.
+#[inline]
+pub(crate) fn first_max(
+    values: &[f32; MAX_ACTIONS],
+    allowed: ActionMask,
+) -> (Option<(ActionIndex, f32)>, bool) {
+    let bits = allowed.bits();
+    let mut lanes = [f32::NEG_INFINITY; 8];
+    let mut nan = [false; 8];
+    const _: () = assert!(MAX_ACTIONS.is_multiple_of(8));
+    for (k, chunk) in values.as_chunks::<8>().0.iter().enumerate() {
+        let word = (bits >> (8 * k)) as u32;
+        for j in 0..8 {
+            let (here, v) = (word & 1 << j != 0, chunk[j]);
+            nan[j] |= here & v.is_nan();
+            lanes[j] = if here & (v > lanes[j]) { v } else { lanes[j] };
+        }
+    }
+    let mut max = f32::NEG_INFINITY;
+    for m in lanes {
+        max = if m > max { m } else { max };
+    }
+    let mut hits = [0u8; MAX_ACTIONS / 8];
+    for (h, chunk) in hits.iter_mut().zip(values.as_chunks::<8>().0) {
+        for j in 0..8 {
+            *h |= ((chunk[j] == max) as u8) << j;
+        }
+    }
+    let first = ActionMask::from_bits(u64::from_le_bytes(hits) & bits)
+        .first()
+        .map(|a| (a, values[a.get()]));
+    (first, nan.contains(&true))
 }
 
 #[cfg(test)]

@@ -92,7 +92,10 @@ pub fn target(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> ActionIndex
         let table = round.features();
         return best_among(ActionMask::from_bits(zeros), |a| dot(w, &table[a]));
     }
-    target_of(&scores(w, round), round, delta)
+    match round.scores_at(w) {
+        Some(scores) => target_of(scores, round, delta),
+        None => target_of(&scores(w, round), round, delta),
+    }
 }
 
 /// The action of highest score among `among` (not empty), lowest index on ties: `target_of`'s
@@ -117,8 +120,12 @@ fn best_among(among: ActionMask, score: impl Fn(ActionIndex) -> f32) -> ActionIn
     best
 }
 
-/// The score `w · φ(a)` of every allowed action (forbidden ones are 0, never read).
+/// The score `w · φ(a)` of every allowed action (forbidden ones are never read): every action's
+/// in one pass on a [`policy::WIDE`] target, else the allowed actions' one by one.
 fn scores(w: &Weights, round: &Round<'_>) -> [f32; MAX_ACTIONS] {
+    if policy::WIDE {
+        return policy::all_scores(w, round.features());
+    }
     let mut out = [0.0f32; MAX_ACTIONS];
     policy::scores(w, round.features(), round.allowed(), &mut out);
     out
@@ -150,25 +157,30 @@ fn difference(a: &Features, b: &Features) -> Features {
 
 /// The generalized hinge `max_i [Δ_i + (s_i − s_â)]` and its subgradient at `w`.
 ///
-/// One pass of scores over the allowed actions. When a single action holds the minimum of `Δ`
-/// (action feedback always, most others) `â` is known before any score and each score is used
-/// where it is computed; otherwise `â` is the best scored of the minimum's actions, read from
-/// the pass.
+/// One pass of scores over the allowed actions, none when the round carries its scores at `w`
+/// ([`Round::with_scores`]: select's, for feedback linearized at the weights that chose). On a
+/// [`policy::WIDE`] target the pass scores every action, then the terms of all of them side by
+/// side give the maximum. On the car, when a single action holds the minimum of `Δ` (action
+/// feedback always, most others) `â` is known before any score and each score is used where it
+/// is computed; otherwise `â` is the best scored of the minimum's actions, read from the pass.
 pub fn generalized_hinge(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> SurrogateEval {
     let zeros = ActionMask::from_bits(delta.zeros() & round.allowed().bits());
     let table = round.features();
-    let mut it = zeros.iter();
-    let (hat, value, sel) = match (it.next(), it.len()) {
-        (Some(hat), 0) => hinge_from(hat, dot(w, &table[hat]), round, delta, |a| {
-            dot(w, &table[a])
-        }),
-        (first, _) => {
-            let scores = scores(w, round);
-            let hat = match first {
-                Some(_) => best_among(zeros, |a| scores[a.get()]),
-                None => target_of(&scores, round, delta),
-            };
-            hinge_from(hat, scores[hat.get()], round, delta, |a| scores[a.get()])
+    let (hat, value, sel) = match round.scores_at(w) {
+        Some(scores) => hinge_of(scores, round, delta),
+        None if policy::WIDE => hinge_of(&policy::all_scores(w, table), round, delta),
+        None => {
+            let mut it = zeros.iter();
+            match (it.next(), it.len()) {
+                (Some(hat), 0) => hinge_one_by_one(hat, dot(w, &table[hat]), round, delta, |a| {
+                    dot(w, &table[a])
+                }),
+                _ => {
+                    let scores = scores(w, round);
+                    let hat = target_scored(&scores, zeros, round, delta);
+                    hinge_one_by_one(hat, scores[hat.get()], round, delta, |a| scores[a.get()])
+                }
+            }
         }
     };
     SurrogateEval {
@@ -179,9 +191,50 @@ pub fn generalized_hinge(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> 
     }
 }
 
-/// The hinge's maximum and maximiser given `â`, its score and every allowed action's.
+/// `â` from every allowed action's score, `zeros` the allowed ones where `Δ` is 0.
 #[inline(always)]
-fn hinge_from(
+fn target_scored(
+    scores: &[f32; MAX_ACTIONS],
+    zeros: ActionMask,
+    round: &Round<'_>,
+    delta: &PseudoLoss,
+) -> ActionIndex {
+    match zeros.first() {
+        Some(_) => best_among(zeros, |a| scores[a.get()]),
+        None => target_of(scores, round, delta),
+    }
+}
+
+/// `â`, the hinge's maximum and its maximiser from every allowed action's score: the terms
+/// `Δ_a + (s_a − s_â)` of all 64 actions side by side, then [`policy::first_max`] of the allowed
+/// ones. The target's own term is `Δ_â + 0 = Δ_â`, where the running maximum of
+/// [`hinge_one_by_one`] starts: the maximiser is the first allowed action whose term exceeds it
+/// (a NaN term never does), else `â` (ties keep the zero subgradient).
+#[inline(always)]
+fn hinge_of(
+    scores: &[f32; MAX_ACTIONS],
+    round: &Round<'_>,
+    delta: &PseudoLoss,
+) -> (ActionIndex, f32, ActionIndex) {
+    let zeros = ActionMask::from_bits(delta.zeros() & round.allowed().bits());
+    let hat = target_scored(scores, zeros, round, delta);
+    let s_hat = scores[hat.get()];
+    let values = delta.values();
+    let mut terms = [0.0f32; MAX_ACTIONS];
+    for i in 0..MAX_ACTIONS {
+        terms[i] = values[i] + (scores[i] - s_hat);
+    }
+    let start = delta[hat];
+    match policy::first_max(&terms, round.allowed()).0 {
+        Some((sel, value)) if value > start => (hat, value, sel),
+        _ => (hat, start, hat),
+    }
+}
+
+/// The hinge's maximum and maximiser given `â`, its score and every allowed action's, one action
+/// at a time.
+#[inline(always)]
+fn hinge_one_by_one(
     hat: ActionIndex,
     s_hat: f32,
     round: &Round<'_>,

@@ -10,7 +10,7 @@ use firmware_core::{
     ActionFeedback, ActionIndex, ActionMask, CorrectnessFeedback, EStopFeedback, FEATURE_COUNT,
     Feature, FeatureTable, Feedback, MAX_ACTIONS, PSEUDO_LOSS_BOUND, PreferenceFeedback,
     RankingFeedback, RewardFeedback, Round, SEMANTIC_LOSS, SemanticFeedback, SurrogateEval, dot,
-    pseudo_loss, surrogate,
+    policy, pseudo_loss, surrogate,
 };
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -149,6 +149,17 @@ fn grid(rng: &mut ChaCha8Rng) -> f32 {
     }
 }
 
+/// A table of [`grid`] values.
+fn grid_table(rng: &mut ChaCha8Rng) -> FeatureTable {
+    let mut table = FeatureTable::ZERO;
+    for row in table.rows_mut() {
+        for x in row.iter_mut() {
+            *x = grid(rng);
+        }
+    }
+    table
+}
+
 fn random_mask(rng: &mut ChaCha8Rng) -> ActionMask {
     let bits = match rng.random_range(0..4u32) {
         0 => u64::MAX,
@@ -208,12 +219,7 @@ fn the_round_is_bit_for_bit_its_reference() {
     let mut rng = ChaCha8Rng::seed_from_u64(17);
     let (mut checked, mut refused) = (0, 0);
     for _ in 0..40_000 {
-        let mut table = FeatureTable::ZERO;
-        for row in table.rows_mut() {
-            for x in row.iter_mut() {
-                *x = grid(&mut rng);
-            }
-        }
+        let table = grid_table(&mut rng);
         let mask = random_mask(&mut rng);
         let chosen = pick(&mut rng, mask);
         let w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
@@ -272,12 +278,7 @@ fn the_round_is_bit_for_bit_its_reference() {
 fn a_pseudo_loss_of_another_round_finds_the_same_target() {
     let mut rng = ChaCha8Rng::seed_from_u64(18);
     for _ in 0..5_000 {
-        let mut table = FeatureTable::ZERO;
-        for row in table.rows_mut() {
-            for x in row.iter_mut() {
-                *x = grid(&mut rng);
-            }
-        }
+        let table = grid_table(&mut rng);
         let (m1, m2) = (random_mask(&mut rng), random_mask(&mut rng));
         let w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
         let first = Round::new(&table, m1, pick(&mut rng, m1)).unwrap();
@@ -322,4 +323,97 @@ fn the_shift_is_bit_for_bit_its_reference() {
             None => assert!(got.is_err()),
         }
     }
+}
+
+/// `policy::select` as first written: every allowed score in index order, the first taken and
+/// each later one that is not at most the best so far.
+fn reference_select(
+    w: &[f32; FEATURE_COUNT],
+    table: &FeatureTable,
+    mask: ActionMask,
+) -> Option<ActionIndex> {
+    let mut best: Option<(ActionIndex, f32)> = None;
+    for a in mask {
+        let s = dot(w, &table[a]);
+        match best {
+            Some((_, b)) if s <= b => {}
+            _ => best = Some((a, s)),
+        }
+    }
+    best.map(|(a, _)| a)
+}
+
+/// Select, with and without keeping its scores, chooses as the reference does, on tables built
+/// to tie, with NaNs and infinities in some rows (allowed or not) and in some weights; the scores
+/// it keeps are the allowed actions' `dot`s, bit for bit.
+#[test]
+fn select_is_bit_for_bit_its_reference() {
+    let mut rng = ChaCha8Rng::seed_from_u64(20);
+    for _ in 0..20_000 {
+        let mut table = FeatureTable::ZERO;
+        for row in table.rows_mut() {
+            for x in row.iter_mut() {
+                *x = match rng.random_range(0..200u32) {
+                    0 => f32::NAN,
+                    1 => f32::INFINITY,
+                    2 => f32::NEG_INFINITY,
+                    _ => grid(&mut rng),
+                };
+            }
+        }
+        let mask = match rng.random_range(0..8u32) {
+            0 => ActionMask::NONE,
+            _ => random_mask(&mut rng),
+        };
+        let mut w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
+        if rng.random_range(0..50u32) == 0 {
+            w[rng.random_range(0..FEATURE_COUNT)] = f32::NAN;
+        }
+        let expected = reference_select(&w, &table, mask);
+        assert_eq!(policy::select(&w, &table, mask), expected);
+        let mut scores = [0.0f32; MAX_ACTIONS];
+        assert_eq!(
+            policy::select_scored(&w, &table, mask, &mut scores),
+            expected
+        );
+        for a in mask {
+            assert_eq!(scores[a.get()].to_bits(), dot(&w, &table[a]).to_bits());
+        }
+    }
+}
+
+/// A round carrying select's scores evaluates both surrogates as the reference does at the
+/// weights the scores are of, and ignores them at any other weights (the raw iterate, for action
+/// feedback).
+#[test]
+fn a_round_with_its_scores_is_bit_for_bit_its_reference() {
+    let mut rng = ChaCha8Rng::seed_from_u64(21);
+    let mut checked = 0;
+    for _ in 0..20_000 {
+        let table = grid_table(&mut rng);
+        let mask = random_mask(&mut rng);
+        let w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
+        let other: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
+        let mut scores = [0.0f32; MAX_ACTIONS];
+        let chosen = policy::select_scored(&w, &table, mask, &mut scores).unwrap();
+        let round = Round::new(&table, mask, chosen)
+            .unwrap()
+            .with_scores(&w, &scores);
+        let fb = random_feedback(&mut rng, mask);
+        let Ok(delta) = pseudo_loss(&fb, &round) else {
+            continue;
+        };
+        for at in [w, other] {
+            assert!(same(
+                &surrogate::generalized_hinge(&at, &round, &delta),
+                &reference_hinge(&at, &round, delta.values())
+            ));
+            assert!(same(
+                &surrogate::perceptron(&at, &round, &delta),
+                &reference_perceptron(&at, &round, delta.values())
+            ));
+        }
+        checked += 1;
+    }
+    assert!(checked > 10_000, "{checked} checked");
 }
