@@ -348,7 +348,7 @@ impl Index<ActionIndex> for PseudoLoss {
     }
 }
 
-/// Whether bit `8k + j` of `bits` is set, `j < 8`. On a [`WIDE`] target as a bit of a 32-bit word,
+/// Whether bit `8k + j` of `bits` is set, `j < 8`. On a `WIDE` target as a bit of a 32-bit word,
 /// which the compiler tests in every lane of a vector at once (and the running minima without a
 /// branch, the zero bits gathered as bytes), where the bits of a byte become byte lanes widened
 /// in steps; on the car as a bit of the byte, the code it has always run.
@@ -668,7 +668,7 @@ impl PseudoLossSource for SemanticFeedback {
 /// Adds [`SEMANTIC_LOSS`] to `out` for every allowed action that does not do strictly better
 /// than the learner's choice on `quantity` (higher or lower, as the statement wants), and 0 to
 /// the others: without a branch, and the same bits (`x + 0 = x` for the `x ≥ 0` here). On a
-/// [`WIDE`] target, every action, allowed or not, side by side.
+/// `WIDE` target, every action, allowed or not, side by side.
 #[inline(always)]
 fn add_fails(
     round: &Round<'_>,

@@ -52,7 +52,7 @@ pub fn select(w: &Weights, table: &FeatureTable, allowed: ActionMask) -> Option<
     select_keeping(w, table, allowed, |_, _| {})
 }
 
-/// [`select`], keeping the score of every allowed action in `scores` (on a [`WIDE`] target every
+/// [`select`], keeping the score of every allowed action in `scores` (on a `WIDE` target every
 /// action's, a forbidden one's never to be read; on the car the forbidden entries are left
 /// untouched): a round that carries them ([`crate::Round::with_scores`]) takes them instead of
 /// scoring the table again when it learns at the same weights.
@@ -110,7 +110,7 @@ fn select_among(scores: &[f32; MAX_ACTIONS], allowed: ActionMask) -> Option<Acti
 }
 
 /// The score of every action, allowed or not, in index order: one pass over the whole table
-/// without a test per action, which the compiler vectorises on a [`WIDE`] target (several actions
+/// without a test per action, which the compiler vectorises on a `WIDE` target (several actions
 /// side by side, each summed in [`dot`]'s order: the same bits as [`score`]). A forbidden
 /// action's row is not checked ([`FeatureTable::check`]): its score is whatever it is, never read.
 #[inline]
@@ -127,7 +127,7 @@ pub(crate) fn all_scores(w: &Weights, table: &FeatureTable) -> [f32; MAX_ACTIONS
 /// allowed value is NaN. This is where a running maximum in index order (`if v > best`) ends,
 /// NaNs passed over; here the maximum runs in eight running maxima side by side, then every value
 /// is compared with it (a zero of either sign equals the other) and the first allowed one found
-/// equal is the answer: both passes without a branch, which the compiler vectorises on a [`WIDE`]
+/// equal is the answer: both passes without a branch, which the compiler vectorises on a `WIDE`
 /// target.
 #[inline]
 pub(crate) fn first_max(

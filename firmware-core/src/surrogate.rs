@@ -121,7 +121,7 @@ fn best_among(among: ActionMask, score: impl Fn(ActionIndex) -> f32) -> ActionIn
 }
 
 /// The score `w · φ(a)` of every allowed action (forbidden ones are never read): every action's
-/// in one pass on a [`policy::WIDE`] target, else the allowed actions' one by one.
+/// in one pass on a `policy::WIDE` target, else the allowed actions' one by one.
 fn scores(w: &Weights, round: &Round<'_>) -> [f32; MAX_ACTIONS] {
     if policy::WIDE {
         return policy::all_scores(w, round.features());
@@ -159,7 +159,7 @@ fn difference(a: &Features, b: &Features) -> Features {
 ///
 /// One pass of scores over the allowed actions, none when the round carries its scores at `w`
 /// ([`Round::with_scores`]: select's, for feedback linearized at the weights that chose). On a
-/// [`policy::WIDE`] target the pass scores every action, then the terms of all of them side by
+/// `policy::WIDE` target the pass scores every action, then the terms of all of them side by
 /// side give the maximum. On the car, when a single action holds the minimum of `Δ` (action
 /// feedback always, most others) `â` is known before any score and each score is used where it
 /// is computed; otherwise `â` is the best scored of the minimum's actions, read from the pass.
