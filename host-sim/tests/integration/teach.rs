@@ -1,7 +1,7 @@
 //! `host-sim teach` and `replay-session` without a browser: the console answers only with its
 //! token, Ctrl-C ends a session with its files written, a folder holding a session is not
 //! overwritten, and bad session folders are named. (The page itself is tested in a real browser
-//! by tests/console.rs.)
+//! by console.rs beside this file.)
 
 use crate::support::host_sim;
 use std::io::{BufRead, BufReader, Read, Write};

@@ -1,14 +1,14 @@
 //! The teaching console end to end, in a real headless browser: Debian's chromium driven through
-//! chromedriver (WebDriver) by fantoccini. `host-sim teach` runs as a person would start it; the
-//! test opens the printed URL, teaches through real clicks and key presses, finishes the session
-//! and replays it with `host-sim replay-session`.
+//! chromedriver by a small W3C WebDriver client of our own (`console/webdriver.rs`). `host-sim
+//! teach` runs as a person would start it; the test opens the printed URL, teaches through real
+//! clicks and key presses, finishes the session and replays it with `host-sim replay-session`.
 //!
-//! Needs `chromium` and `chromedriver` (scripts/setup-browser installs them) and the
-//! `browser-test` feature:
+//! Ignored by default: it needs `chromium` and `chromedriver` (scripts/setup-browser installs
+//! them).
 //!
 //! ```text
 //! scripts/setup-browser
-//! cargo test -p host-sim --features browser-test --test console -- --ignored
+//! cargo test -p host-sim --test integration -- --ignored console::
 //! ```
 //!
 //! The screenshots are saved under target/tmp/console/ (`CARGO_TARGET_TMPDIR`).
@@ -18,17 +18,24 @@ use std::net::{Ipv4Addr, SocketAddr, SocketAddrV4, TcpListener, TcpStream};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, mpsc};
+use std::sync::{Arc, Mutex, MutexGuard, mpsc};
 use std::time::{Duration, Instant};
 
-use fantoccini::actions::{
-    InputSource, KeyAction, KeyActions, MOUSE_BUTTON_LEFT, MouseActions, PointerAction,
-};
-use fantoccini::{Client, ClientBuilder, Locator};
 use serde_json::{Value, json};
 
+use webdriver::Session;
+
+mod webdriver;
+
 /// One browser at a time: the machine has two cores.
-static BROWSER: tokio::sync::Mutex<()> = tokio::sync::Mutex::const_new(());
+static BROWSER: Mutex<()> = Mutex::new(());
+
+/// The browser's turn: a test that failed holding it does not stop the next.
+fn one_browser() -> MutexGuard<'static, ()> {
+    BROWSER
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
 
 /// How long anything may take before the test gives up (a failure, not a measurement).
 const PATIENCE: Duration = Duration::from_secs(60);
@@ -52,7 +59,7 @@ fn free_port() -> u16 {
 }
 
 /// chromedriver on a free port of 127.0.0.1, and a headless chromium session through it.
-async fn browser(profile: &Path) -> (Process, Client) {
+fn browser(profile: &Path) -> (Process, Session) {
     let port = free_port();
     let driver = Command::new("chromedriver")
         .arg(format!("--port={port}"))
@@ -80,11 +87,7 @@ async fn browser(profile: &Path) -> (Process, Client) {
             ],
         }),
     );
-    let client = ClientBuilder::new(hyper_util::client::legacy::connect::HttpConnector::new())
-        .capabilities(caps)
-        .connect(&format!("http://127.0.0.1:{port}"))
-        .await
-        .expect("a chromium session");
+    let client = Session::new(port, Value::Object(caps)).expect("a chromium session");
     (driver, client)
 }
 
@@ -139,15 +142,15 @@ fn get(url: &str) -> (String, String) {
     (status, body)
 }
 
-async fn js(c: &Client, script: &str) -> Value {
-    c.execute(script, vec![]).await.expect(script)
+fn js(c: &Session, script: &str) -> Value {
+    c.execute(script).expect(script)
 }
 
 /// Polls `script` until it returns something truthy.
-async fn until(c: &Client, script: &str, what: &str) -> Value {
+fn until(c: &Session, script: &str, what: &str) -> Value {
     let deadline = Instant::now() + PATIENCE;
     loop {
-        let v = js(c, script).await;
+        let v = js(c, script);
         let truthy = match &v {
             Value::Null => false,
             Value::Bool(b) => *b,
@@ -159,86 +162,56 @@ async fn until(c: &Client, script: &str, what: &str) -> Value {
             return v;
         }
         assert!(Instant::now() < deadline, "waited in vain for {what}");
-        tokio::task::yield_now().await;
         std::thread::sleep(Duration::from_millis(40));
     }
 }
 
-async fn press(c: &Client, key: char) {
-    let keys = KeyActions::new("keyboard".into())
-        .then(KeyAction::Down { value: key })
-        .then(KeyAction::Up { value: key });
-    c.perform_actions(keys).await.expect("a key press");
+fn press(c: &Session, key: char) {
+    c.press(key).expect("a key press");
 }
 
 /// A real click at page point (x, y).
-async fn click_at(c: &Client, x: f64, y: f64) {
-    let mouse = MouseActions::new("mouse".into())
-        .then(PointerAction::MoveTo {
-            duration: None,
-            x: x.round(),
-            y: y.round(),
-        })
-        .then(PointerAction::Down {
-            button: MOUSE_BUTTON_LEFT,
-        })
-        .then(PointerAction::Up {
-            button: MOUSE_BUTTON_LEFT,
-        });
-    c.perform_actions(mouse).await.expect("a click");
-    c.release_actions().await.unwrap();
+fn click_at(c: &Session, x: f64, y: f64) {
+    c.click_at(x, y).expect("a click");
 }
 
-async fn click_button(c: &Client, id: &str) {
-    c.find(Locator::Id(id))
-        .await
-        .expect(id)
-        .click()
-        .await
-        .expect(id);
+fn click_button(c: &Session, id: &str) {
+    c.find_id(id).expect(id).click().expect(id);
 }
 
-async fn text(c: &Client, id: &str) -> String {
-    c.find(Locator::Id(id))
-        .await
-        .expect(id)
-        .text()
-        .await
-        .expect(id)
+fn text(c: &Session, id: &str) -> String {
+    c.find_id(id).expect(id).text().expect(id)
 }
 
-async fn weights(c: &Client) -> Vec<String> {
+fn weights(c: &Session) -> Vec<String> {
     let v = js(
         c,
         "return [...document.querySelectorAll('#weights .row')].map(r => r.dataset.value || '')",
-    )
-    .await;
+    );
     serde_json::from_value(v).unwrap()
 }
 
-async fn corrections(c: &Client) -> u64 {
-    text(c, "corrections").await.parse().unwrap()
+fn corrections(c: &Session) -> u64 {
+    text(c, "corrections").parse().unwrap()
 }
 
-async fn wait_corrections(c: &Client, n: u64) {
+fn wait_corrections(c: &Session, n: u64) {
     until(
         c,
         &format!("return document.getElementById('corrections').textContent === '{n}'"),
         &format!("{n} corrections"),
-    )
-    .await;
+    );
 }
 
 /// Opens the console, waits for the map and the 64 trajectories, and checks them.
-async fn open(c: &Client, url: &str) {
-    c.goto(url).await.unwrap();
+fn open(c: &Session, url: &str) {
+    c.goto(url).unwrap();
     let drawn = until(
         c,
         "const d = window.teachConsole && window.teachConsole.drawn; \
          return d && d.map && d.trajectories === 64 ? d : null",
         "the map and the 64 trajectories drawn",
-    )
-    .await;
+    );
     assert!(drawn["allowed"].as_u64().unwrap() > 1, "{drawn}");
     assert!(drawn["chosen"].is_u64(), "{drawn}");
     // The map really is on the canvas: its pixels are not all the background.
@@ -249,8 +222,7 @@ async fn open(c: &Client, url: &str) {
          let white = 0; for (let i = 0; i < d.length; i += 4) \
            if (d[i] > 250 && d[i + 1] > 250 && d[i + 2] > 250) white++; \
          return white",
-    )
-    .await;
+    );
     assert!(
         painted.as_u64().unwrap() > 10_000,
         "free space drawn: {painted}"
@@ -258,7 +230,7 @@ async fn open(c: &Client, url: &str) {
 }
 
 /// Clicks the allowed trajectory whose end is farthest from the learner's choice; returns it.
-async fn click_a_trajectory(c: &Client) -> u64 {
+fn click_a_trajectory(c: &Session) -> u64 {
     let pick = js(
         c,
         "const s = window.teachConsole.state(); \
@@ -267,15 +239,13 @@ async fn click_a_trajectory(c: &Client) -> u64 {
          for (const a of s.allowed) { const p = end(a); \
            const d = Math.hypot(p.x - mine.x, p.y - mine.y); if (d > far) { far = d; best = a; } } \
          return {action: best, point: end(best)}",
-    )
-    .await;
+    );
     let a = pick["action"].as_u64().unwrap();
     click_at(
         c,
         pick["point"]["x"].as_f64().unwrap(),
         pick["point"]["y"].as_f64().unwrap(),
-    )
-    .await;
+    );
     a
 }
 
@@ -294,22 +264,21 @@ fn artifacts() -> PathBuf {
 }
 
 /// Saves the page, from its top, as `name` under target/tmp/console/.
-async fn screenshot(c: &Client, name: &str) {
-    js(c, "window.scrollTo(0, 0); return true").await;
+fn screenshot(c: &Session, name: &str) {
+    js(c, "window.scrollTo(0, 0); return true");
     std::thread::sleep(Duration::from_millis(200));
-    let png = c.screenshot().await.expect("a screenshot");
+    let png = c.screenshot().expect("a screenshot");
     std::fs::write(artifacts().join(name), png).unwrap();
 }
 
 /// Ends the session with the page's button and waits for host-sim teach to exit.
-async fn finish(c: &Client, teach: &mut Process, out: &mpsc::Receiver<String>) -> Vec<String> {
-    click_button(c, "finish").await;
+fn finish(c: &Session, teach: &mut Process, out: &mpsc::Receiver<String>) -> Vec<String> {
+    click_button(c, "finish");
     until(
         c,
         "return !document.getElementById('ended').hidden",
         "the page says the session ended",
-    )
-    .await;
+    );
     let deadline = Instant::now() + PATIENCE;
     let status = loop {
         if let Some(s) = teach.0.try_wait().unwrap() {
@@ -350,10 +319,10 @@ fn replays_byte_for_byte(dir: &Path) {
     }
 }
 
-#[tokio::test]
+#[test]
 #[ignore = "needs chromium and chromedriver (scripts/setup-browser); .ci/run runs it"]
-async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte() {
-    let _one = BROWSER.lock().await;
+fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte() {
+    let _one = one_browser();
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("session");
     let (mut teach, url, out) = teach(&[
@@ -371,50 +340,47 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
     assert!(body.contains("needs the token"), "{body}");
     assert!(get(&format!("{base}/?token=0123")).0.contains("403"));
     assert!(get(&format!("{base}/ws")).0.contains("403"));
-    let (_driver, c) = browser(&tmp.path().join("profile")).await;
-    c.goto(&format!("{base}/")).await.unwrap();
-    let refused = c
-        .find(Locator::Css("body"))
-        .await
-        .unwrap()
-        .text()
-        .await
-        .unwrap();
+    let (_driver, c) = browser(&tmp.path().join("profile"));
+    c.goto(&format!("{base}/")).unwrap();
+    let refused = c.find("body").unwrap().text().unwrap();
     assert!(refused.contains("refused"), "{refused}");
 
     // With it: the map and the 64 trajectories.
-    open(&c, &url).await;
-    assert_eq!(text(&c, "status").await, "paused");
-    assert_eq!(corrections(&c).await, 0);
-    let before = weights(&c).await;
+    open(&c, &url);
+    assert_eq!(text(&c, "status"), "paused");
+    assert_eq!(corrections(&c), 0);
+    let before = weights(&c);
     assert_eq!(before.len(), 6);
 
     // A click on a trajectory: "go there". The counter goes up and the weights move.
-    let clicked = click_a_trajectory(&c).await;
-    wait_corrections(&c, 1).await;
+    let clicked = click_a_trajectory(&c);
+    wait_corrections(&c, 1);
     until(
         &c,
         "return [...document.querySelectorAll('#weights .row')].some(r => Number(r.dataset.value) !== 0)",
         "the weights to move",
-    )
-    .await;
-    assert_ne!(weights(&c).await, before, "the weights changed");
+    );
+    assert_ne!(weights(&c), before, "the weights changed");
 
     // A preference: the mode by its button, the answer by its key ("the other is better").
-    click_button(&c, "preference").await;
-    until(&c, "return window.teachConsole.mode() === 'preference' && window.teachConsole.candidate() !== null", "preference mode").await;
-    press(&c, '2').await;
-    wait_corrections(&c, 2).await;
+    click_button(&c, "preference");
+    until(
+        &c,
+        "return window.teachConsole.mode() === 'preference' && window.teachConsole.candidate() !== null",
+        "preference mode",
+    );
+    press(&c, '2');
+    wait_corrections(&c, 2);
     // A statement, by its key: "stay on the path".
-    press(&c, 'l').await;
-    wait_corrections(&c, 3).await;
+    press(&c, 'l');
+    wait_corrections(&c, 3);
     // And by its button: "avoid doors".
-    click_button(&c, "say-avoid-doors").await;
-    wait_corrections(&c, 4).await;
+    click_button(&c, "say-avoid-doors");
+    wait_corrections(&c, 4);
 
     // Play, pause, single steps.
-    let t0: u64 = text(&c, "tick").await.parse().unwrap();
-    press(&c, ' ').await;
+    let t0: u64 = text(&c, "tick").parse().unwrap();
+    press(&c, ' ');
     until(
         &c,
         &format!(
@@ -422,23 +388,17 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
             t0 + 5
         ),
         "the ticks to run",
-    )
-    .await;
-    press(&c, ' ').await;
+    );
+    press(&c, ' ');
     until(
         &c,
         "return document.getElementById('status').textContent === 'paused'",
         "the pause",
-    )
-    .await;
-    let t1: u64 = text(&c, "tick").await.parse().unwrap();
-    std::thread::sleep(Duration::from_millis(300));
-    assert_eq!(
-        text(&c, "tick").await.parse::<u64>().unwrap(),
-        t1,
-        "paused stays"
     );
-    press(&c, '.').await;
+    let t1: u64 = text(&c, "tick").parse().unwrap();
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(text(&c, "tick").parse::<u64>().unwrap(), t1, "paused stays");
+    press(&c, '.');
     until(
         &c,
         &format!(
@@ -446,9 +406,8 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
             t1 + 1
         ),
         "a single step",
-    )
-    .await;
-    click_button(&c, "step").await;
+    );
+    click_button(&c, "step");
     until(
         &c,
         &format!(
@@ -456,51 +415,48 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
             t1 + 2
         ),
         "another step",
-    )
-    .await;
+    );
     // Faster, then a click at the new tick.
-    press(&c, '+').await;
+    press(&c, '+');
     until(
         &c,
         "return document.getElementById('speed').textContent === '2×'",
         "2×",
-    )
-    .await;
-    click_button(&c, "preference").await;
-    click_a_trajectory(&c).await;
-    wait_corrections(&c, 5).await;
+    );
+    click_button(&c, "preference");
+    click_a_trajectory(&c);
+    wait_corrections(&c, 5);
 
     // The page as it is now: the README's screenshot.
-    screenshot(&c, "console.png").await;
+    screenshot(&c, "console.png");
 
     // A reward of +½ by its key, and "incorrect" by its button: each about the learner's choice
     // in the tick shown, each a correction.
-    press(&c, '9').await;
-    wait_corrections(&c, 6).await;
-    click_button(&c, "mark-incorrect").await;
-    wait_corrections(&c, 7).await;
+    press(&c, '9');
+    wait_corrections(&c, 6);
+    click_button(&c, "mark-incorrect");
+    wait_corrections(&c, 7);
     // "The last ticks were bad", by its key.
-    press(&c, 'x').await;
-    wait_corrections(&c, 8).await;
-    let counts = text(&c, "teachings").await;
+    press(&c, 'x');
+    wait_corrections(&c, 8);
+    let counts = text(&c, "teachings");
     assert!(
         counts.contains("1 rewards") && counts.contains("1 marks") && counts.contains("1 spans"),
         "{counts}"
     );
 
     // The E-stop, by its key: the intervention, a correction too.
-    press(&c, '\u{E00C}').await;
+    press(&c, '\u{E00C}');
     until(
         &c,
         "return document.getElementById('status').textContent === 'E-STOPPED'",
         "the E-stop",
-    )
-    .await;
-    wait_corrections(&c, 9).await;
+    );
+    wait_corrections(&c, 9);
 
-    let said = finish(&c, &mut teach, &out).await;
+    let said = finish(&c, &mut teach, &out);
     assert!(said.iter().any(|l| l.contains("session ended")), "{said:?}");
-    c.close().await.unwrap();
+    c.close().unwrap();
 
     // The session's files: every teaching with its tick, kind, content and wall time.
     let feedback = lines(&dir.join("feedback.jsonl"));
@@ -545,14 +501,14 @@ async fn a_person_teaches_in_the_browser_and_the_session_replays_byte_for_byte()
     replays_byte_for_byte(&dir);
 }
 
-#[tokio::test]
+#[test]
 #[ignore = "needs chromium and chromedriver (scripts/setup-browser); .ci/run runs it"]
-async fn the_console_teaches_the_car_over_the_link() {
+fn the_console_teaches_the_car_over_the_link() {
     use hil_mock::server::Server;
     use hil_mock::transport::udp::UdpLink;
     use protocol::car::CarConfig;
 
-    let _one = BROWSER.lock().await;
+    let _one = one_browser();
     let tmp = tempfile::tempdir().unwrap();
     // The car: a hil_mock server on UDP 127.0.0.1 with its key.
     let mut car = UdpLink::listen(SocketAddrV4::new(Ipv4Addr::LOCALHOST, 0)).unwrap();
@@ -580,36 +536,34 @@ async fn the_console_teaches_the_car_over_the_link() {
         "--key",
         key_file.to_str().unwrap(),
     ]);
-    let (_driver, c) = browser(&tmp.path().join("profile")).await;
-    open(&c, &url).await;
+    let (_driver, c) = browser(&tmp.path().join("profile"));
+    open(&c, &url);
     // The page shows the link's state.
     until(
         &c,
         "return document.getElementById('link').dataset.connected === 'true'",
         "the link connected",
-    )
-    .await;
-    let link_text = text(&c, "link").await;
+    );
+    let link_text = text(&c, "link");
     assert!(
         link_text.contains("connected") && link_text.contains("retransmissions"),
         "{link_text}"
     );
-    click_a_trajectory(&c).await;
-    wait_corrections(&c, 1).await;
-    press(&c, 'd').await;
-    wait_corrections(&c, 2).await;
+    click_a_trajectory(&c);
+    wait_corrections(&c, 1);
+    press(&c, 'd');
+    wait_corrections(&c, 2);
     for _ in 0..5 {
-        press(&c, '.').await;
+        press(&c, '.');
     }
     until(
         &c,
         "return document.getElementById('tick').textContent === '5'",
         "five steps",
-    )
-    .await;
-    screenshot(&c, "console-link.png").await;
-    finish(&c, &mut teach, &out).await;
-    c.close().await.unwrap();
+    );
+    screenshot(&c, "console-link.png");
+    finish(&c, &mut teach, &out);
+    c.close().unwrap();
     stop.store(true, Ordering::Relaxed);
     let stats = server.join().unwrap();
     assert!(stats.observations >= 6, "{stats:?}");
