@@ -3,31 +3,11 @@
 //! overwritten, and bad session folders are named. (The page itself is tested in a real browser
 //! by console.rs beside this file.)
 
-use crate::support::host_sim;
+use crate::support::{get, host_sim};
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::TcpStream;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-/// Status line and body of a GET of `path` on `authority` with extra header lines.
-fn get(authority: &str, path: &str, headers: &str) -> (String, String) {
-    let mut s = TcpStream::connect(authority).unwrap();
-    write!(
-        s,
-        "GET {path} HTTP/1.1\r\nHost: {authority}\r\n{headers}Connection: close\r\n\r\n"
-    )
-    .unwrap();
-    let mut bytes = Vec::new();
-    s.read_to_end(&mut bytes).unwrap();
-    let text = String::from_utf8_lossy(&bytes);
-    let status = text.lines().next().unwrap_or_default().to_string();
-    let body = text
-        .split("\r\n\r\n")
-        .nth(1)
-        .unwrap_or_default()
-        .to_string();
-    (status, body)
-}
 
 /// A `host-sim teach` killed when dropped.
 struct Teach(Child);
