@@ -70,7 +70,7 @@ use serde::{Deserialize, Serialize};
 use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
 use crate::error::LearnError;
 use crate::evaluator::cross_track_errors;
-use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features, Weights};
+use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features, Weights, ieee_sqrt};
 use crate::observation::{PathReference, REFERENCE_COORDINATE_BOUND};
 use crate::policy::WIDE;
 
@@ -471,7 +471,7 @@ pub struct PreferenceFeedback {
 /// Euclidean distance `‖x − y‖`, summed from index 0.
 #[inline]
 pub(crate) fn distance(x: &Features, y: &Features) -> f32 {
-    libm::sqrtf(squared_distance(x, y))
+    ieee_sqrt(squared_distance(x, y))
 }
 
 /// `‖x − y‖²`, summed from index 0 ([`distance`] before its root).
@@ -506,8 +506,8 @@ impl PseudoLossSource for PreferenceFeedback {
             return Ok(());
         }
         // Every action's entry, allowed or not (a forbidden one is never read): the squares side
-        // by side, then the roots (`libm::sqrtf`, one instruction that the compiler cannot put
-        // side by side on x86-64), each entry as `distance` computes it.
+        // by side, then the roots (side by side too with the `std` feature, see `ieee_sqrt`),
+        // each entry as `distance` computes it.
         let rows = round.features().rows();
         let mut to_p = [0.0f32; MAX_ACTIONS];
         let mut to_np = [0.0f32; MAX_ACTIONS];
@@ -516,7 +516,7 @@ impl PseudoLossSource for PreferenceFeedback {
             to_np[i] = squared_distance(np, &rows[i]);
         }
         for i in 0..MAX_ACTIONS {
-            out[i] = libm::sqrtf(to_p[i]) - libm::sqrtf(to_np[i]);
+            out[i] = ieee_sqrt(to_p[i]) - ieee_sqrt(to_np[i]);
         }
         Ok(())
     }
