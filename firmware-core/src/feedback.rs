@@ -251,7 +251,19 @@ impl PseudoLoss {
     }
 
     /// [`PseudoLoss::from_raw`]'s check and shift, in place; on `Err` the values are unchanged.
+    /// Every action allowed, on a `WIDE` target, takes a copy of the same passes without the
+    /// mask's test per entry.
     fn shift(&mut self, allowed: ActionMask) -> Result<(), LearnError> {
+        if WIDE && allowed == ActionMask::ALL {
+            self.shift_of::<true>(allowed)
+        } else {
+            self.shift_of::<false>(allowed)
+        }
+    }
+
+    /// [`PseudoLoss::shift`], every action allowed when `ALL`.
+    #[inline(always)]
+    fn shift_of<const ALL: bool>(&mut self, allowed: ActionMask) -> Result<(), LearnError> {
         let values = &mut self.values;
         // One comparison per entry for the bound, false for NaN and both infinities, and the
         // minimum without branches, in eight running minima side by side (eight actions at a
@@ -265,7 +277,7 @@ impl PseudoLoss {
         const _: () = assert!(MAX_ACTIONS.is_multiple_of(8));
         for (k, chunk) in values.as_chunks::<8>().0.iter().enumerate() {
             for j in 0..8 {
-                let here = lane(bits, k, j);
+                let here = ALL || lane(bits, k, j);
                 let v = chunk[j];
                 good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
                 let lower = if WIDE {
@@ -296,7 +308,7 @@ impl PseudoLoss {
         for (k, chunk) in values.as_chunks_mut::<8>().0.iter_mut().enumerate() {
             let mut z = 0u8;
             for (j, v) in chunk.iter_mut().enumerate() {
-                let here = lane(bits, k, j);
+                let here = ALL || lane(bits, k, j);
                 z |= ((!here | (*v == min)) as u8) << j;
                 *v = if here { *v - min } else { 0.0 };
             }
