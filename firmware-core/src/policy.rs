@@ -265,8 +265,12 @@ mod tests {
                 2 => ActionMask::from_bits(1 << (next() % 64)),
                 _ => ActionMask::from_bits(next()),
             };
-            let (got, want) = (first_max(&values, allowed), first_max_reference(&values, allowed));
-            let bits = |r: (Option<(ActionIndex, f32)>, bool)| (r.0.map(|(a, v)| (a, v.to_bits())), r.1);
+            let (got, want) = (
+                first_max(&values, allowed),
+                first_max_reference(&values, allowed),
+            );
+            let bits =
+                |r: (Option<(ActionIndex, f32)>, bool)| (r.0.map(|(a, v)| (a, v.to_bits())), r.1);
             assert_eq!(bits(got), bits(want), "{values:?} {allowed:?}");
         }
     }

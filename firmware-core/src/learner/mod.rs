@@ -42,8 +42,7 @@ pub use snapshot::{LearnerSnapshot, LearnerState, SNAPSHOT_VERSION};
 use crate::action::{ActionIndex, ActionMask};
 use crate::error::{LearnError, UpdateError};
 use crate::feature::{
-    FEATURE_BOUND, FEATURE_COUNT, FeatureTable, Features, WEIGHT_BOUND, Weights, ieee_sqrt,
-    within,
+    FEATURE_BOUND, FEATURE_COUNT, FeatureTable, Features, WEIGHT_BOUND, Weights, ieee_sqrt, within,
 };
 use crate::feedback::{PseudoLoss, PseudoLossSource, Round, pseudo_loss};
 use crate::surrogate::{self, Surrogate, SurrogateEval};
