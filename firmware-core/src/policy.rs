@@ -171,17 +171,17 @@ fn first_max_of<const ALL: bool>(
             at[j] = if up { k as u32 } else { at[j] };
         }
     }
-    // A lane that grew holds a value above −∞, found at index 8·at + j, the first of its equals
-    // in that lane; across the lanes the largest, the lowest index among equals: the first index
-    // of all whose value equals the maximum.
+    // A lane that grew holds a value above −∞ (never NaN), found at index 8·at + j, the first of
+    // its equals in that lane; across the lanes the largest, the lowest index among equals: the
+    // first index of all whose value equals the maximum.
     let mut best: Option<(usize, f32)> = None;
     for j in 0..8 {
         let (m, i) = (lanes[j], 8 * at[j] as usize + j);
-        if !(m > f32::NEG_INFINITY) {
+        if m == f32::NEG_INFINITY {
             continue;
         }
         match best {
-            Some((b, bm)) if !(m > bm || (m == bm && i < b)) => {}
+            Some((b, bm)) if m < bm || (m == bm && i > b) => {}
             _ => best = Some((i, m)),
         }
     }
