@@ -6,25 +6,13 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use firmware_core::observation::PathReference;
 use firmware_core::{
-    ActionFeedback, ActionIndex, ActionMask, Feature, FeatureTable, Feedback, Learner, LearnerKind,
-    LearnerParams, MAX_ACTIONS, OnlineLearner, PreferenceFeedback, Round, SemanticFeedback, dot,
-    policy,
+    ActionMask, Learner, LearnerKind, LearnerParams, OnlineLearner, Round, dot, policy,
 };
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
-fn table(seed: u64) -> FeatureTable {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut t = FeatureTable::ZERO;
-    for row in t.rows_mut() {
-        for x in row.iter_mut() {
-            *x = rng.random_range(-1.0f32..1.0);
-        }
-    }
-    t
-}
+#[path = "support/round.rs"]
+mod fixture;
+use fixture::{AHEAD, table};
 
 fn bench_select(c: &mut Criterion) {
     let t = table(1);
@@ -43,34 +31,9 @@ fn bench_select(c: &mut Criterion) {
     group.finish();
 }
 
-/// The path 1 m straight ahead: statements about the path are judged against it.
-const AHEAD: PathReference = PathReference {
-    x: 1.0,
-    y: 0.0,
-    heading: 0.0,
-};
-
 fn bench_update(c: &mut Criterion) {
     let t = table(2);
-    let a = |i| ActionIndex::new(i).unwrap();
-    let feedbacks: [(&str, Feedback); 3] = [
-        ("action", ActionFeedback { action: a(17) }.into()),
-        (
-            "preference",
-            PreferenceFeedback {
-                preferred: a(17),
-                other: a(40),
-            }
-            .into(),
-        ),
-        (
-            "semantic",
-            SemanticFeedback::new()
-                .avoid(Feature::Door)
-                .prefer(Feature::Path)
-                .into(),
-        ),
-    ];
+    let feedbacks = fixture::feedbacks();
     let mut group = c.benchmark_group("update");
     for kind in [
         LearnerKind::Ogd,
@@ -102,32 +65,13 @@ fn bench_update(c: &mut Criterion) {
     group.finish();
 }
 
-/// The round the car runs when a correction arrives for the tick it just acted in: select over
-/// 64 actions keeping their scores, then one update, with the default learner (averaged OGD),
-/// the round carrying its path reference as the agent's do (a statement about the path needs it)
-/// and select's scores (`Round::with_scores`, as the agent's do off the car); and in the same
-/// group, the 64 × 6 dot products of the acting weights with the table that any round must do
-/// once. The learner has taken a few steps first, so that its raw iterate (where action
-/// feedback is linearized) is not its average (where it acts): a fresh learner's are the same
-/// weights, and select's scores would serve action feedback too.
+/// The round the car runs when a correction arrives for the tick it just acted in
+/// ([`fixture::round`]: select over 64 actions keeping their scores, then one update, with the
+/// default learner warmed so that its raw iterate is not its average), and in the same group the
+/// 64 × 6 dot products of the acting weights with the table that any round must do once.
 fn bench_round(c: &mut Criterion) {
     let t = table(3);
-    let a = |i| ActionIndex::new(i).unwrap();
-    let mut learner = Learner::new(
-        LearnerParams::default()
-            .with_initial([0.3, -0.2, 0.9, 0.1, -0.7, 0.4])
-            .check()
-            .unwrap(),
-    );
-    let warm = table(4);
-    for i in [5, 23, 41] {
-        let chosen = learner.select(&warm, ActionMask::ALL).unwrap();
-        let round = Round::new(&warm, ActionMask::ALL, chosen).unwrap();
-        learner
-            .learn(&round, &ActionFeedback { action: a(i) })
-            .unwrap();
-    }
-    assert_ne!(learner.state().iterate, learner.state().average);
+    let learner = fixture::warmed_learner();
     let mut group = c.benchmark_group("round");
     group.bench_function("dot-products", |b| {
         b.iter(|| {
@@ -139,42 +83,11 @@ fn bench_round(c: &mut Criterion) {
             sum
         })
     });
-    let feedbacks: [(&str, Feedback); 3] = [
-        ("action", ActionFeedback { action: a(17) }.into()),
-        (
-            "preference",
-            PreferenceFeedback {
-                preferred: a(17),
-                other: a(40),
-            }
-            .into(),
-        ),
-        (
-            "semantic",
-            SemanticFeedback::new()
-                .avoid(Feature::Door)
-                .prefer(Feature::Path)
-                .into(),
-        ),
-    ];
-    for (name, fb) in &feedbacks {
+    for (name, fb) in &fixture::feedbacks() {
         // Each iteration starts from a copy of the same learner (about 100 bytes on the stack):
         // `iter_batched_ref` would time its batch's vector of outputs too, page faults included.
         group.bench_function(BenchmarkId::new("select+update", name), |b| {
-            b.iter(|| {
-                let mut l = black_box(learner);
-                let table = black_box(&t);
-                let mut scores = [0.0f32; MAX_ACTIONS];
-                let chosen =
-                    policy::select_scored(l.weights(), table, ActionMask::ALL, &mut scores)
-                        .unwrap();
-                let round = Round::new(table, ActionMask::ALL, chosen)
-                    .and_then(|r| r.with_reference(AHEAD))
-                    .unwrap()
-                    .with_scores(l.weights(), &scores);
-                l.learn(&round, black_box(fb)).unwrap();
-                l
-            })
+            b.iter(|| fixture::round(&learner, &t, fb))
         });
     }
     group.finish();

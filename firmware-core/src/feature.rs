@@ -146,6 +146,20 @@ pub fn dot(a: &Features, b: &Features) -> f32 {
     s
 }
 
+/// The correctly rounded square root (IEEE 754), as `libm::sqrtf` computes it: with the `std`
+/// feature `f32::sqrt`, the same bits (both correctly rounded; tested below on a dense sample and
+/// every special value, and exhaustively by `cargo test -p firmware-core --release --features
+/// std --lib -- --ignored ieee_sqrt_all_bit_patterns`), which the compiler puts four to a
+/// `sqrtps` on x86-64 where `libm`'s one `sqrtss` in an `asm!` block stays alone; without it (the
+/// car) `libm::sqrtf`. Not [`crate::evaluator::sqrt`], which is not correctly rounded.
+#[inline(always)]
+pub(crate) fn ieee_sqrt(x: f32) -> f32 {
+    #[cfg(feature = "std")]
+    return x.sqrt();
+    #[cfg(not(feature = "std"))]
+    return libm::sqrtf(x);
+}
+
 /// Whether every entry is finite with magnitude at most `bound`.
 #[inline]
 pub(crate) fn within(v: &Features, bound: f32) -> bool {
@@ -291,5 +305,52 @@ mod tests {
         );
         t[a][2] = -FEATURE_BOUND;
         assert_eq!(t.check(ActionMask::ALL), Ok(()));
+    }
+
+    /// `f32::sqrt` (what [`ieee_sqrt`] is with the `std` feature) and `libm::sqrtf` (without it)
+    /// give the same bits for `bits`, NaNs included.
+    fn same_sqrt(bits: u32) -> bool {
+        let x = f32::from_bits(bits);
+        x.sqrt().to_bits() == libm::sqrtf(x).to_bits()
+    }
+
+    #[test]
+    fn ieee_sqrt_is_libm_sqrtf_on_a_dense_sample() {
+        let specials = [
+            0.0f32,
+            -0.0,
+            f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            -1.0,
+            1.0,
+            2.0,
+            4.0,
+            FEATURE_BOUND,
+        ];
+        for x in specials {
+            assert!(same_sqrt(x.to_bits()), "{x:e}");
+        }
+        // Every 257th bit pattern (about 16.7 million, both signs, subnormals, NaNs), and every
+        // 61st pattern from 0 to 4 (the squared distances and sums of the learner are mostly there).
+        let mut bits = 0u32;
+        while let Some(next) = bits.checked_add(257) {
+            assert!(same_sqrt(bits), "{:e}", f32::from_bits(bits));
+            bits = next;
+        }
+        for bits in (0..=4.0f32.to_bits()).step_by(61) {
+            assert!(same_sqrt(bits), "{:e}", f32::from_bits(bits));
+        }
+    }
+
+    #[test]
+    #[ignore = "every f32 bit pattern: about 4.3e9 roots each way (run in release)"]
+    fn ieee_sqrt_all_bit_patterns() {
+        let differ = (0..=u32::MAX).filter(|&b| !same_sqrt(b)).count();
+        assert_eq!(differ, 0);
     }
 }

@@ -70,7 +70,7 @@ use serde::{Deserialize, Serialize};
 use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
 use crate::error::LearnError;
 use crate::evaluator::cross_track_errors;
-use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features, Weights};
+use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features, Weights, ieee_sqrt};
 use crate::observation::{PathReference, REFERENCE_COORDINATE_BOUND};
 use crate::policy::WIDE;
 
@@ -251,7 +251,19 @@ impl PseudoLoss {
     }
 
     /// [`PseudoLoss::from_raw`]'s check and shift, in place; on `Err` the values are unchanged.
+    /// Every action allowed, on a `WIDE` target, takes a copy of the same passes without the
+    /// mask's test per entry.
     fn shift(&mut self, allowed: ActionMask) -> Result<(), LearnError> {
+        if WIDE && allowed == ActionMask::ALL {
+            self.shift_of::<true>(allowed)
+        } else {
+            self.shift_of::<false>(allowed)
+        }
+    }
+
+    /// [`PseudoLoss::shift`], every action allowed when `ALL`.
+    #[inline(always)]
+    fn shift_of<const ALL: bool>(&mut self, allowed: ActionMask) -> Result<(), LearnError> {
         let values = &mut self.values;
         // One comparison per entry for the bound, false for NaN and both infinities, and the
         // minimum without branches, in eight running minima side by side (eight actions at a
@@ -265,7 +277,7 @@ impl PseudoLoss {
         const _: () = assert!(MAX_ACTIONS.is_multiple_of(8));
         for (k, chunk) in values.as_chunks::<8>().0.iter().enumerate() {
             for j in 0..8 {
-                let here = lane(bits, k, j);
+                let here = ALL || lane(bits, k, j);
                 let v = chunk[j];
                 good &= !here | (v.abs() <= PSEUDO_LOSS_BOUND);
                 let lower = if WIDE {
@@ -296,7 +308,7 @@ impl PseudoLoss {
         for (k, chunk) in values.as_chunks_mut::<8>().0.iter_mut().enumerate() {
             let mut z = 0u8;
             for (j, v) in chunk.iter_mut().enumerate() {
-                let here = lane(bits, k, j);
+                let here = ALL || lane(bits, k, j);
                 z |= ((!here | (*v == min)) as u8) << j;
                 *v = if here { *v - min } else { 0.0 };
             }
@@ -471,7 +483,7 @@ pub struct PreferenceFeedback {
 /// Euclidean distance `‖x − y‖`, summed from index 0.
 #[inline]
 pub(crate) fn distance(x: &Features, y: &Features) -> f32 {
-    libm::sqrtf(squared_distance(x, y))
+    ieee_sqrt(squared_distance(x, y))
 }
 
 /// `‖x − y‖²`, summed from index 0 ([`distance`] before its root).
@@ -506,8 +518,8 @@ impl PseudoLossSource for PreferenceFeedback {
             return Ok(());
         }
         // Every action's entry, allowed or not (a forbidden one is never read): the squares side
-        // by side, then the roots (`libm::sqrtf`, one instruction that the compiler cannot put
-        // side by side on x86-64), each entry as `distance` computes it.
+        // by side, then the roots (side by side too with the `std` feature, see `ieee_sqrt`),
+        // each entry as `distance` computes it.
         let rows = round.features().rows();
         let mut to_p = [0.0f32; MAX_ACTIONS];
         let mut to_np = [0.0f32; MAX_ACTIONS];
@@ -516,7 +528,7 @@ impl PseudoLossSource for PreferenceFeedback {
             to_np[i] = squared_distance(np, &rows[i]);
         }
         for i in 0..MAX_ACTIONS {
-            out[i] = libm::sqrtf(to_p[i]) - libm::sqrtf(to_np[i]);
+            out[i] = ieee_sqrt(to_p[i]) - ieee_sqrt(to_np[i]);
         }
         Ok(())
     }

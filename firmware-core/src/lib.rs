@@ -93,10 +93,16 @@
 //!
 //! * `max-size`: derive postcard's `MaxSize` for the types that travel on the wire (used by the
 //!   `protocol` crate to bound message sizes at compile time).
+//! * `std`: links `std` for its square root, the same bits as `libm`'s, which the compiler
+//!   vectorises on the host (host-sim, hil_mock and the tests turn it on; the car's firmware
+//!   never does).
 
 #![cfg_attr(not(test), no_std)]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
+
+#[cfg(all(feature = "std", not(test)))]
+extern crate std;
 
 pub mod action;
 pub mod agent;

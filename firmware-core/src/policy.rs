@@ -63,7 +63,7 @@ pub fn select_scored(
     scores: &mut [f32; MAX_ACTIONS],
 ) -> Option<ActionIndex> {
     if WIDE {
-        *scores = all_scores(w, table);
+        score_all(w, table, scores);
         return select_among(scores, allowed);
     }
     select_keeping(w, table, allowed, |a, s| scores[a.get()] = s)
@@ -116,49 +116,83 @@ fn select_among(scores: &[f32; MAX_ACTIONS], allowed: ActionMask) -> Option<Acti
 #[inline]
 pub(crate) fn all_scores(w: &Weights, table: &FeatureTable) -> [f32; MAX_ACTIONS] {
     let mut out = [0.0f32; MAX_ACTIONS];
+    score_all(w, table, &mut out);
+    out
+}
+
+/// [`all_scores`] written into `out` (no array of scores on the stack to be copied there).
+#[inline(always)]
+fn score_all(w: &Weights, table: &FeatureTable, out: &mut [f32; MAX_ACTIONS]) {
     for (s, row) in out.iter_mut().zip(table.rows()) {
         *s = dot(w, row);
     }
-    out
 }
 
 /// The first allowed action whose value is the largest of the allowed ones that are not NaN, and
 /// that value (`None` when every allowed value is NaN or nothing is allowed); and whether some
 /// allowed value is NaN. This is where a running maximum in index order (`if v > best`) ends,
-/// NaNs passed over; here the maximum runs in eight running maxima side by side, then every value
-/// is compared with it (a zero of either sign equals the other) and the first allowed one found
-/// equal is the answer: both passes without a branch, which the compiler vectorises on a `WIDE`
-/// target.
+/// NaNs passed over; here the maximum runs in eight running maxima side by side, each keeping
+/// the chunk where it last grew (the first of its equals: `v > best` keeps the first), without a
+/// branch, which the compiler vectorises on a `WIDE` target; then the lanes' maxima are compared
+/// (a zero of either sign equals the other), the lowest index winning among equals.
+///
+/// Every action allowed (a round where nothing is forbidden), on a `WIDE` target, takes a copy
+/// of the same passes without the mask's test per value.
 #[inline]
 pub(crate) fn first_max(
     values: &[f32; MAX_ACTIONS],
     allowed: ActionMask,
 ) -> (Option<(ActionIndex, f32)>, bool) {
+    if WIDE && allowed == ActionMask::ALL {
+        first_max_of::<true>(values, allowed)
+    } else {
+        first_max_of::<false>(values, allowed)
+    }
+}
+
+/// [`first_max`], every action allowed when `ALL`.
+#[inline(always)]
+fn first_max_of<const ALL: bool>(
+    values: &[f32; MAX_ACTIONS],
+    allowed: ActionMask,
+) -> (Option<(ActionIndex, f32)>, bool) {
     let bits = allowed.bits();
     let mut lanes = [f32::NEG_INFINITY; 8];
+    let mut at = [0u32; 8];
     let mut nan = [false; 8];
     const _: () = assert!(MAX_ACTIONS.is_multiple_of(8));
     for (k, chunk) in values.as_chunks::<8>().0.iter().enumerate() {
         let word = (bits >> (8 * k)) as u32;
         for j in 0..8 {
-            let (here, v) = (word & 1 << j != 0, chunk[j]);
+            let (here, v) = (ALL || word & 1 << j != 0, chunk[j]);
             nan[j] |= here & v.is_nan();
-            lanes[j] = if here & (v > lanes[j]) { v } else { lanes[j] };
+            let up = here & (v > lanes[j]);
+            lanes[j] = if up { v } else { lanes[j] };
+            at[j] = if up { k as u32 } else { at[j] };
         }
     }
-    let mut max = f32::NEG_INFINITY;
-    for m in lanes {
-        max = if m > max { m } else { max };
-    }
-    let mut hits = [0u8; MAX_ACTIONS / 8];
-    for (h, chunk) in hits.iter_mut().zip(values.as_chunks::<8>().0) {
-        for j in 0..8 {
-            *h |= ((chunk[j] == max) as u8) << j;
+    // A lane that grew holds a value above −∞ (never NaN), found at index 8·at + j, the first of
+    // its equals in that lane; across the lanes the largest, the lowest index among equals: the
+    // first index of all whose value equals the maximum.
+    let mut best: Option<(usize, f32)> = None;
+    for j in 0..8 {
+        let (m, i) = (lanes[j], 8 * at[j] as usize + j);
+        if m == f32::NEG_INFINITY {
+            continue;
+        }
+        match best {
+            Some((b, bm)) if m < bm || (m == bm && i > b) => {}
+            _ => best = Some((i, m)),
         }
     }
-    let first = ActionMask::from_bits(u64::from_le_bytes(hits) & bits)
-        .first()
-        .map(|a| (a, values[a.get()]));
+    let first = match best {
+        Some((i, _)) => ActionIndex::new(i).map(|a| (a, values[i])),
+        // No allowed value above −∞: the first allowed −∞, if any.
+        None => allowed
+            .iter()
+            .find(|a| values[a.get()] == f32::NEG_INFINITY)
+            .map(|a| (a, values[a.get()])),
+    };
     (first, nan.contains(&true))
 }
 
@@ -177,6 +211,68 @@ mod tests {
         assert_eq!(select(&w, &table, ActionMask::ALL), Some(idx(0)));
         let mask: ActionMask = [idx(9), idx(4), idx(40)].into_iter().collect();
         assert_eq!(select(&w, &table, mask), Some(idx(4)));
+    }
+
+    /// `first_max` as it was first written: a running maximum over the allowed values in index
+    /// order, then the first allowed value equal to it.
+    fn first_max_reference(
+        values: &[f32; MAX_ACTIONS],
+        allowed: ActionMask,
+    ) -> (Option<(ActionIndex, f32)>, bool) {
+        let (mut max, mut nan) = (f32::NEG_INFINITY, false);
+        for a in allowed {
+            let v = values[a.get()];
+            nan |= v.is_nan();
+            if v > max {
+                max = v;
+            }
+        }
+        let first = allowed
+            .iter()
+            .find(|a| values[a.get()] == max)
+            .map(|a| (a, values[a.get()]));
+        (first, nan)
+    }
+
+    #[test]
+    fn first_max_is_the_first_of_the_running_maximum() {
+        // Few distinct values (zeros of both signs, infinities, NaN) so that ties are the rule.
+        const SET: [f32; 8] = [
+            f32::NEG_INFINITY,
+            -1.0,
+            -0.0,
+            0.0,
+            1.0,
+            f32::INFINITY,
+            f32::NAN,
+            0.5,
+        ];
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for case in 0..20_000 {
+            // Some cases draw from fewer values: only −∞, −∞ and −1, no NaN, no 0.5.
+            let span = [8, 2, 1, 7, 5][case % 5];
+            let values: [f32; MAX_ACTIONS] =
+                core::array::from_fn(|_| SET[(next() % span) as usize]);
+            let allowed = match case % 4 {
+                0 => ActionMask::ALL,
+                1 => ActionMask::from_bits(next() & next()),
+                2 => ActionMask::from_bits(1 << (next() % 64)),
+                _ => ActionMask::from_bits(next()),
+            };
+            let (got, want) = (
+                first_max(&values, allowed),
+                first_max_reference(&values, allowed),
+            );
+            let bits =
+                |r: (Option<(ActionIndex, f32)>, bool)| (r.0.map(|(a, v)| (a, v.to_bits())), r.1);
+            assert_eq!(bits(got), bits(want), "{values:?} {allowed:?}");
+        }
     }
 
     #[test]

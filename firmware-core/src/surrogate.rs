@@ -168,7 +168,18 @@ pub fn generalized_hinge(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> 
     let table = round.features();
     let (hat, value, sel) = match round.scores_at(w) {
         Some(scores) => hinge_of(scores, round, delta),
-        None if policy::WIDE => hinge_of(&policy::all_scores(w, table), round, delta),
+        None if policy::WIDE => {
+            let mut it = zeros.iter();
+            match (it.next(), it.len()) {
+                // `â` known before any score (action feedback always): each action's term as
+                // its score is computed, no array of scores.
+                (Some(hat), 0) => {
+                    let rows = table.rows();
+                    hinge_terms(hat, dot(w, &table[hat]), round, delta, |i| dot(w, &rows[i]))
+                }
+                _ => hinge_of(&policy::all_scores(w, table), round, delta),
+            }
+        }
         None => {
             let mut it = zeros.iter();
             match (it.next(), it.len()) {
@@ -218,11 +229,23 @@ fn hinge_of(
 ) -> (ActionIndex, f32, ActionIndex) {
     let zeros = ActionMask::from_bits(delta.zeros() & round.allowed().bits());
     let hat = target_scored(scores, zeros, round, delta);
-    let s_hat = scores[hat.get()];
+    hinge_terms(hat, scores[hat.get()], round, delta, |i| scores[i])
+}
+
+/// [`hinge_of`] given `â`, its score and every action's (`score(i)`, the same bits as
+/// `dot(w, φ_i)`): the terms side by side, then their first maximum.
+#[inline(always)]
+fn hinge_terms(
+    hat: ActionIndex,
+    s_hat: f32,
+    round: &Round<'_>,
+    delta: &PseudoLoss,
+    score: impl Fn(usize) -> f32,
+) -> (ActionIndex, f32, ActionIndex) {
     let values = delta.values();
     let mut terms = [0.0f32; MAX_ACTIONS];
     for i in 0..MAX_ACTIONS {
-        terms[i] = values[i] + (scores[i] - s_hat);
+        terms[i] = values[i] + (score(i) - s_hat);
     }
     let start = delta[hat];
     match policy::first_max(&terms, round.allowed()).0 {

@@ -56,7 +56,7 @@ use super::{Round, distance};
 use crate::action::{ActionIndex, MAX_ACTIONS};
 use crate::error::LearnError;
 use crate::evaluator::{PATH_CLIP, RIGHT_SCALE, SEMANTIC_CLIP};
-use crate::feature::{FEATURE_COUNT, Feature, Features};
+use crate::feature::{FEATURE_COUNT, Feature, Features, ieee_sqrt};
 use crate::lattice::{FOOTPRINT_CENTER_OFFSET, OBSTACLE_CLIP, Pose, SAMPLES, trajectory};
 use crate::observation::{SemanticClass, ValidObservation};
 
@@ -255,7 +255,7 @@ impl DeformedTrajectory {
                     d2 = d;
                 }
             }
-            obstacles += libm::sqrtf(d2).min(OBSTACLE_CLIP);
+            obstacles += ieee_sqrt(d2).min(OBSTACLE_CLIP);
         }
         phi[Feature::Obstacles.index()] = k * obstacles / OBSTACLE_CLIP;
         for class in SemanticClass::ALL {
@@ -266,7 +266,7 @@ impl DeformedTrajectory {
                 for o in obs.objects.iter().filter(|o| o.class == class) {
                     any = true;
                     let (dx, dy) = (c[0] - o.x, c[1] - o.y);
-                    let d = (libm::sqrtf(dx * dx + dy * dy) - o.radius).max(0.0);
+                    let d = (ieee_sqrt(dx * dx + dy * dy) - o.radius).max(0.0);
                     best = best.min(d);
                 }
                 sum += best;

@@ -42,7 +42,7 @@ pub use snapshot::{LearnerSnapshot, LearnerState, SNAPSHOT_VERSION};
 use crate::action::{ActionIndex, ActionMask};
 use crate::error::{LearnError, UpdateError};
 use crate::feature::{
-    FEATURE_BOUND, FEATURE_COUNT, FeatureTable, Features, WEIGHT_BOUND, Weights, within,
+    FEATURE_BOUND, FEATURE_COUNT, FeatureTable, Features, WEIGHT_BOUND, Weights, ieee_sqrt, within,
 };
 use crate::feedback::{PseudoLoss, PseudoLossSource, Round, pseudo_loss};
 use crate::surrogate::{self, Surrogate, SurrogateEval};
@@ -142,7 +142,7 @@ pub(crate) fn norm(w: &Weights) -> f32 {
     for x in w {
         s += x * x;
     }
-    libm::sqrtf(s)
+    ieee_sqrt(s)
 }
 
 fn check_gradient(g: &Features) -> Result<(), UpdateError> {
@@ -210,7 +210,7 @@ impl Ogd {
     /// The step size of the next step.
     pub fn next_step_size(&self) -> f32 {
         if self.decaying {
-            self.step / libm::sqrtf(self.t.saturating_add(1) as f32)
+            self.step / ieee_sqrt(self.t.saturating_add(1) as f32)
         } else {
             self.step
         }
@@ -371,7 +371,7 @@ impl OnlineLearner for AdaGrad {
         let mut w = self.w;
         for i in 0..FEATURE_COUNT {
             squares[i] += g[i] * g[i];
-            w[i] -= self.step * g[i] / (libm::sqrtf(squares[i]) + ADAGRAD_EPSILON);
+            w[i] -= self.step * g[i] / (ieee_sqrt(squares[i]) + ADAGRAD_EPSILON);
         }
         if squares.iter().any(|x| !x.is_finite()) {
             return Err(UpdateError::OutOfBounds);
