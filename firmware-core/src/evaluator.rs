@@ -91,6 +91,19 @@
 //! The bound below leaves a factor of five. Host and car run the same operations, so they agree
 //! bit for bit regardless.
 //!
+//! # On the host
+//!
+//! The pruning above is tuned for the car's instruction counts (cheap branches, one `f32` at a
+//! time). A host that computes several `f32`s side by side (`policy::WIDE`: every target but
+//! `arm`) takes other paths through the same passes, without the branches that only skip work:
+//! a cluster's candidates and near set are compacted by counting instead of branching; every
+//! member of a measured cluster keeps its least squared distance, and all of them become clipped
+//! roots in one vectorised pass at the end; the centre's distance, which only decides pruning,
+//! is the processor's exact root; and the semantic pass computes every near object's clearance
+//! of every member of a cluster with one branch-free formula (no per-cluster cases, no dominance
+//! test). Each value comes from the same operations as on the car, so the masks and rows are
+//! the same bits (tested on random observations against the car's paths, run on the host).
+//!
 //! ```
 //! use firmware_core::evaluator::Evaluator;
 //! use firmware_core::observation::Observation;
@@ -428,7 +441,11 @@ impl Evaluator {
             // every member is within `m + s` of that point, and a point farther than `m + 2s`
             // from the centre is farther than `m + s` from every member: only the points within
             // `m + 2s` of the centre can be a member's nearest (the near set).
-            let m = sqrt(m2);
+            // On a wide target the processor's correctly rounded root (one instruction, where
+            // `sqrt` is two dependent divisions): `m` only decides pruning, each decision with a
+            // relative 1e-5 and a millimetre to spare, far above the two roots' difference (at
+            // most SQRT_RELATIVE_ERROR), so either root gives the same mask and clearances.
+            let m = if W { libm::sqrtf(m2) } else { sqrt(m2) };
             if (m + spread) * (1.0 + 1.0e-5) + REACH_MARGIN < COLLISION_RADIUS {
                 // Every member is within the collision radius of the centre's nearest point.
                 collided |= cluster.trajectories;
