@@ -91,6 +91,19 @@
 //! The bound below leaves a factor of five. Host and car run the same operations, so they agree
 //! bit for bit regardless.
 //!
+//! # On the host
+//!
+//! The pruning above is tuned for the car's instruction counts (cheap branches, one `f32` at a
+//! time). A host that computes several `f32`s side by side (`policy::WIDE`: every target but
+//! `arm`) takes other paths through the same passes, without the branches that only skip work:
+//! a cluster's candidates and near set are compacted by counting instead of branching; every
+//! member of a measured cluster keeps its least squared distance, and all of them become clipped
+//! roots in one vectorised pass at the end; the centre's distance, which only decides pruning,
+//! is the processor's exact root; and the semantic pass computes every near object's clearance
+//! of every member of a cluster with one branch-free formula (no per-cluster cases, no dominance
+//! test). Each value comes from the same operations as on the car, so the masks and rows are
+//! the same bits (tested on random observations against the car's paths, run on the host).
+//!
 //! ```
 //! use firmware_core::evaluator::Evaluator;
 //! use firmware_core::observation::Observation;
@@ -116,6 +129,7 @@ use crate::lattice::{
 use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
 };
+use crate::policy::WIDE;
 
 pub use crate::lattice::COLLISION_RADIUS;
 
@@ -132,6 +146,10 @@ pub const PATH_CLIP: f32 = 4.0;
 /// [`Feature::Right`] is the end's lateral offset in these units per metre (decimetres).
 pub const RIGHT_SCALE: f32 = 10.0;
 
+const _: () = assert!(
+    OBSTACLE_CLIP <= 1.0,
+    "the clip is not below its square (a wide target's obstacle pass tells them apart)"
+);
 const _: () = assert!(
     COLLISION_RADIUS < OBSTACLE_CLIP,
     "collisions are decided inside the windows"
@@ -274,7 +292,18 @@ impl Evaluator {
         frame: &PathFrame,
         out: &mut FeatureTable,
     ) -> u64 {
-        let obstacles = self.obstacles(&obs.scan.ranges);
+        self.clearances_with::<WIDE>(obs, frame, out)
+    }
+
+    /// [`Evaluator::clearances`] on the car's paths (`W` false) or the host's (`W` true, see
+    /// `policy::WIDE`): the same bits either way (tested).
+    fn clearances_with<const W: bool>(
+        &mut self,
+        obs: ValidObservation<'_>,
+        frame: &PathFrame,
+        out: &mut FeatureTable,
+    ) -> u64 {
+        let obstacles = self.obstacles::<W>(&obs.scan.ranges);
         let rows = out.rows_mut();
         let allowed = match obstacles {
             Obstacles::Clear => u64::MAX,
@@ -287,7 +316,7 @@ impl Evaluator {
         }
         if allowed != 0 {
             for class in SemanticClass::ALL {
-                self.semantic(&obs, class, allowed, rows);
+                self.semantic::<W>(&obs, class, allowed, rows);
             }
         }
         allowed
@@ -309,7 +338,7 @@ impl Evaluator {
     /// Decides which trajectories collide, then measures the clipped obstacle clearance of every
     /// sample of the others (into `clearance`). Returns the trajectories that do not collide, and
     /// those with a sample nearer than the clip to a scan point, one bit per action.
-    fn obstacles(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
+    fn obstacles<const W: bool>(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
         let Self {
             points,
             shorter,
@@ -356,6 +385,9 @@ impl Evaluator {
         let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
         let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
         let (mut collided, mut touched) = (0u64, 0u64);
+        // On a wide target, the samples whose clearances hold squared distances (the members
+        // of the clusters measured): the range of them, converted at the end.
+        let mut squared = [UNIQUE_SAMPLES, 0];
         fill(clearance, OBSTACLE_CLIP);
         for cluster in CLUSTERS.iter().rev() {
             if cluster.trajectories & !collided == 0 {
@@ -381,7 +413,15 @@ impl Evaluator {
                     let dx = px - cx;
                     let dy = py - cy;
                     let d2 = dx * dx + dy * dy;
-                    if d2 < reach2 {
+                    if W {
+                        // Without a branch: every candidate is written at the end, and kept by
+                        // counting it. `m2` is at most `reach2`, so a `d2` below it is within
+                        // reach: the same least as the branches give.
+                        near[n & (SCAN_BEAMS - 1)] = [px, py];
+                        near_d2[n & (SCAN_BEAMS - 1)] = d2;
+                        n += usize::from(d2 < reach2);
+                        m2 = clipped(d2, m2);
+                    } else if d2 < reach2 {
                         near[n & (SCAN_BEAMS - 1)] = [px, py];
                         near_d2[n & (SCAN_BEAMS - 1)] = d2;
                         n += 1;
@@ -401,7 +441,11 @@ impl Evaluator {
             // every member is within `m + s` of that point, and a point farther than `m + 2s`
             // from the centre is farther than `m + s` from every member: only the points within
             // `m + 2s` of the centre can be a member's nearest (the near set).
-            let m = sqrt(m2);
+            // On a wide target the processor's correctly rounded root (one instruction, where
+            // `sqrt` is two dependent divisions): `m` only decides pruning, each decision with a
+            // relative 1e-5 and a millimetre to spare, far above the two roots' difference (at
+            // most SQRT_RELATIVE_ERROR), so either root gives the same mask and clearances.
+            let m = if W { libm::sqrtf(m2) } else { sqrt(m2) };
             if (m + spread) * (1.0 + 1.0e-5) + REACH_MARGIN < COLLISION_RADIUS {
                 // Every member is within the collision radius of the centre's nearest point.
                 collided |= cluster.trajectories;
@@ -418,7 +462,10 @@ impl Evaluator {
             let n = n.min(SCAN_BEAMS);
             let mut k = 0usize;
             for i in 0..n {
-                if near_d2[i] < limit2 {
+                if W {
+                    near[k & (SCAN_BEAMS - 1)] = near[i];
+                    k += usize::from(near_d2[i] < limit2);
+                } else if near_d2[i] < limit2 {
                     near[k & (SCAN_BEAMS - 1)] = near[i];
                     k += 1;
                 }
@@ -433,6 +480,25 @@ impl Evaluator {
             ) else {
                 continue;
             };
+            if W {
+                // Every member, without a branch: its least squared distance (the clip's square
+                // when nothing is nearer), converted after the pass. A member whose trajectories
+                // all collide already adds nothing to `collided`, and its clearance and its bits
+                // in `touched` are never read (only the trajectories that do not collide are).
+                for ((&[sx, sy], &of), c) in samples.iter().zip(trajectories).zip(clearance) {
+                    let mut best = clip2;
+                    for &[px, py] in set {
+                        let dx = px - sx;
+                        let dy = py - sy;
+                        best = clipped(dx * dx + dy * dy, best);
+                    }
+                    *c = best;
+                    collided |= if best < collide2 { of } else { 0 };
+                    touched |= if best < clip2 { of } else { 0 };
+                }
+                squared = [squared[0].min(start), squared[1].max(end)];
+                continue;
+            }
             for ((&[sx, sy], &of), c) in samples.iter().zip(trajectories).zip(clearance) {
                 if of & !collided == 0 {
                     continue;
@@ -453,6 +519,21 @@ impl Evaluator {
                     // At least the collision radius squared: the root's test is not needed.
                     *c = clipped(newton_sqrt(best), OBSTACLE_CLIP);
                     touched |= of;
+                }
+            }
+        }
+        if W {
+            // The squared distances the members hold into their clearances: below the clip's
+            // square, the root clipped, as the branches above give it; the clip's square (no
+            // scan point nearer) or the clip (not measured) into the clip. A member that collides
+            // takes a root of its distance too: never read. Four at a time (the scratch holds
+            // `SCRATCH` slots, the pass ends at `UNIQUE_SAMPLES` rounded up to four).
+            let [lo, hi] = [squared[0] & !3, squared[1].next_multiple_of(4)];
+            if let Some(measured) = clearance.get_mut(lo..hi) {
+                for c in measured {
+                    let best = *c;
+                    let root = clipped(newton_sqrt(best), OBSTACLE_CLIP);
+                    *c = if best < clip2 { root } else { OBSTACLE_CLIP };
                 }
             }
         }
@@ -502,7 +583,7 @@ impl Evaluator {
     }
 
     /// The clearance feature of one semantic class, for every allowed trajectory.
-    fn semantic(
+    fn semantic<const W: bool>(
         &mut self,
         obs: &Observation,
         class: SemanticClass,
@@ -538,6 +619,10 @@ impl Evaluator {
             return;
         }
         let objects = &objects[..n];
+        // A disc wider than the margin holds every point whose squared distance to its centre
+        // is below `f32::MIN_POSITIVE` (where `sqrt` is not `newton_sqrt`) by far: such a member
+        // reads 0 either way, so the host's loop may take `newton_sqrt` for every member.
+        let wide_discs = W && objects.iter().all(|o| o.radius >= REACH_MARGIN);
         let mut touched = 0u64;
         for cluster in &CLUSTERS {
             // A cluster no allowed trajectory uses is skipped (the sums read no member of it);
@@ -574,6 +659,29 @@ impl Evaluator {
                 continue;
             }
             touched |= cluster.trajectories;
+            if W && wide_discs {
+                // Every near object over every member, the one formula without a branch (see
+                // `disc_clearances`), which the compiler vectorises: the same values as the
+                // pruned cases below, whose tests only skip work.
+                let start = usize::from(cluster.samples[0]);
+                let end = usize::from(cluster.samples[1]);
+                if let (Some(points), Some(clearance)) = (
+                    SAMPLE_POINTS.get(start..end),
+                    self.clearance.get_mut(start..end),
+                ) {
+                    let mut bits = near;
+                    let mut first = true;
+                    while bits != 0 {
+                        let k = bits.trailing_zeros() as usize & (MAX_OBJECTS - 1);
+                        bits &= bits - 1;
+                        if let Some(o) = objects.get(k) {
+                            disc_clearances(clearance, points, o, first);
+                            first = false;
+                        }
+                    }
+                }
+                continue;
+            }
             let centre;
             (near, centre) = if near & (near - 1) == 0 {
                 (near, sqrt(last2))
@@ -672,6 +780,25 @@ impl Evaluator {
                 SEMANTIC_CLIP
             };
         }
+    }
+}
+
+/// On a wide target, the clearance of every member (`points`, `clearance`) to the disc `o`:
+/// written (`first`), or the least of it and the one written before. The one formula of
+/// [`Evaluator::semantic`]'s member loop, without a branch: the clip beyond the reach, else the
+/// root less the radius, at least 0 and at most the clip; `newton_sqrt` for every member, the
+/// same bits as `sqrt` for a disc wider than the margin (a member within `f32::MIN_POSITIVE`'s
+/// root of the centre reads 0 either way).
+#[inline(always)]
+fn disc_clearances(clearance: &mut [f32], points: &[[f32; 2]], o: &Disc, first: bool) {
+    let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
+    for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
+        let (dx, dy) = (sx - ox, sy - oy);
+        let d2 = dx * dx + dy * dy;
+        let d = newton_sqrt(d2) - radius;
+        let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
+        let d = if d2 < reach2 { d } else { SEMANTIC_CLIP };
+        *c = if first { d } else { clipped(d, *c) };
     }
 }
 
@@ -935,6 +1062,106 @@ mod tests {
             samples.retain(|&u| usize::from(u) != crate::lattice::PAD_SAMPLE);
             assert_eq!(samples, SAMPLE_OF[a][..n], "trajectory {a}");
             assert_eq!(ROW_SCALE[a], (SAMPLES / n) as f32, "trajectory {a}");
+        }
+    }
+
+    /// A small deterministic generator (xorshift), for the paths' comparison below.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            self.0
+        }
+
+        fn unit(&mut self) -> f32 {
+            (self.next() >> 40) as f32 / (1u64 << 24) as f32
+        }
+
+        fn range(&mut self, lo: f32, hi: f32) -> f32 {
+            lo + (hi - lo) * self.unit()
+        }
+    }
+
+    /// Scans of several kinds (uniform, near clutter, a corridor, a wall ahead, open space),
+    /// objects anywhere near the lattice, some on a sample or of a tiny radius, and any path.
+    fn random_observation(rng: &mut Rng) -> Observation {
+        use crate::observation::{MAX_OBJECT_RADIUS, SCAN_MAX_RANGE, SemanticObject};
+        let mut obs = Observation::open_space();
+        let kind = rng.next() % 5;
+        let (a, b) = (rng.range(0.2, 2.5), rng.range(0.2, 1.5));
+        for j in 0..SCAN_BEAMS {
+            let (c, s) = (BEAM_COS[j], BEAM_SIN[j]);
+            obs.scan.ranges[j] = match kind {
+                0 => rng.range(0.0, SCAN_MAX_RANGE),
+                1 if rng.next() % 3 == 0 => SCAN_MAX_RANGE,
+                1 => rng.range(0.05, 2.0),
+                2 => (if s > 0.0 { a / s } else { b / -s }).min(SCAN_MAX_RANGE),
+                3 if c > 0.05 => (a / c).min(SCAN_MAX_RANGE),
+                _ => SCAN_MAX_RANGE,
+            };
+        }
+        for _ in 0..rng.next() % (MAX_OBJECTS as u64 + 1) {
+            let class = SemanticClass::ALL[(rng.next() % 3) as usize];
+            let [x, y] = if rng.next() % 8 == 0 {
+                SAMPLE_POINTS[(rng.next() % UNIQUE_SAMPLES as u64) as usize]
+            } else {
+                [rng.range(-4.0, 4.0), rng.range(-4.0, 4.0)]
+            };
+            let radius = match rng.next() % 10 {
+                0 => 1.0e-30,
+                1 => 5.0e-4,
+                2 => MAX_OBJECT_RADIUS,
+                _ => rng.range(0.05, 1.5),
+            };
+            let _ = obs.objects.push(SemanticObject {
+                class,
+                x,
+                y,
+                radius,
+            });
+        }
+        obs.reference = PathReference {
+            x: rng.range(-2.0, 3.0),
+            y: rng.range(-2.0, 2.0),
+            heading: rng.range(-3.0, 3.0),
+        };
+        obs
+    }
+
+    /// The host's paths (`WIDE`) and the car's give the same mask and the same feature bits, on
+    /// a fresh evaluator and on one reused from observation to observation.
+    #[test]
+    fn the_wide_paths_are_the_cars_bit_for_bit() {
+        let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
+        let (mut narrow, mut wide) = (Evaluator::new(), Evaluator::new());
+        for i in 0..20_000 {
+            let obs = random_observation(&mut rng);
+            let valid = obs.check().unwrap();
+            let frame = PathFrame::new(&obs.reference);
+            let mut tables = [FeatureTable::ZERO, FeatureTable::ZERO, FeatureTable::ZERO];
+            let masks = [
+                narrow.clearances_with::<false>(valid, &frame, &mut tables[0]),
+                wide.clearances_with::<true>(valid, &frame, &mut tables[1]),
+                Evaluator::new().clearances_with::<true>(valid, &frame, &mut tables[2]),
+            ];
+            let bits = |t: &FeatureTable| -> Vec<u32> {
+                t.rows().iter().flatten().map(|v| v.to_bits()).collect()
+            };
+            assert_eq!(masks[0], masks[1], "observation {i}: {obs:?}");
+            assert_eq!(masks[0], masks[2], "observation {i}: {obs:?}");
+            assert_eq!(
+                bits(&tables[0]),
+                bits(&tables[1]),
+                "observation {i}: {obs:?}"
+            );
+            assert_eq!(
+                bits(&tables[0]),
+                bits(&tables[2]),
+                "observation {i}: {obs:?}"
+            );
         }
     }
 
