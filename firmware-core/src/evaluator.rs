@@ -1096,7 +1096,7 @@ mod tests {
             let (c, s) = (BEAM_COS[j], BEAM_SIN[j]);
             obs.scan.ranges[j] = match kind {
                 0 => rng.range(0.0, SCAN_MAX_RANGE),
-                1 if rng.next() % 3 == 0 => SCAN_MAX_RANGE,
+                1 if rng.next().is_multiple_of(3) => SCAN_MAX_RANGE,
                 1 => rng.range(0.05, 2.0),
                 2 => (if s > 0.0 { a / s } else { b / -s }).min(SCAN_MAX_RANGE),
                 3 if c > 0.05 => (a / c).min(SCAN_MAX_RANGE),
@@ -1105,7 +1105,7 @@ mod tests {
         }
         for _ in 0..rng.next() % (MAX_OBJECTS as u64 + 1) {
             let class = SemanticClass::ALL[(rng.next() % 3) as usize];
-            let [x, y] = if rng.next() % 8 == 0 {
+            let [x, y] = if rng.next().is_multiple_of(8) {
                 SAMPLE_POINTS[(rng.next() % UNIQUE_SAMPLES as u64) as usize]
             } else {
                 [rng.range(-4.0, 4.0), rng.range(-4.0, 4.0)]
