@@ -7,44 +7,74 @@
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-use nalgebra::{Isometry2, Point2, Translation2, UnitComplex, Vector2};
-
 #[path = "src/lattice/params.rs"]
 #[allow(dead_code, unreachable_pub)]
 mod params;
 
 use params::*;
 
+/// A point or a displacement of the plane, in f64.
+///
+/// The build script's own, so that building firmware-core does not compile nalgebra a second
+/// time as a build dependency (issue 17, item 6: that copy sat on every build's critical path).
+/// Each operation is nalgebra's own formula in the same order (`UnitComplex × Vector2` is
+/// `(c·x − s·y, s·x + c·y)`, an isometry rotates then adds its translation, a vector over a
+/// scalar divides each coordinate), so the tables are the same bytes.
+#[derive(Clone, Copy)]
+struct Xy {
+    x: f64,
+    y: f64,
+}
+
+impl Xy {
+    const fn new(x: f64, y: f64) -> Self {
+        Self { x, y }
+    }
+
+    fn plus(self, o: Self) -> Self {
+        Self::new(self.x + o.x, self.y + o.y)
+    }
+
+    fn minus(self, o: Self) -> Self {
+        Self::new(self.x - o.x, self.y - o.y)
+    }
+
+    fn over(self, k: f64) -> Self {
+        Self::new(self.x / k, self.y / k)
+    }
+}
+
 /// A pose of the car's rear axle in the frame of the trajectory's start: where it is, and its
 /// heading (tracked as an angle, the sum of curvature × arc length, and turned into a rotation by
 /// `libm`, never by the platform's `sin`, so that every build host makes the same tables).
 #[derive(Clone, Copy)]
 struct Pose {
-    at: Point2<f64>,
+    at: Xy,
     heading: f64,
 }
 
 impl Pose {
     const START: Self = Self {
-        at: Point2::new(0.0, 0.0),
+        at: Xy::new(0.0, 0.0),
         heading: 0.0,
     };
 
-    /// The rotation of the heading.
-    fn rotation(&self) -> UnitComplex<f64> {
-        UnitComplex::from_cos_sin_unchecked(libm::cos(self.heading), libm::sin(self.heading))
+    /// `v` turned by the heading.
+    fn rotate(&self, v: Xy) -> Xy {
+        let (c, s) = (libm::cos(self.heading), libm::sin(self.heading));
+        Xy::new(c * v.x - s * v.y, s * v.x + c * v.y)
     }
 
-    /// The pose as an isometry of the start's frame.
-    fn isometry(&self) -> Isometry2<f64> {
-        Isometry2::from_parts(Translation2::from(self.at.coords), self.rotation())
+    /// The point `v` of the pose's own frame, in the start's frame.
+    fn transform_point(&self, v: Xy) -> Xy {
+        self.rotate(v).plus(self.at)
     }
 }
 
 /// The unit vector at right angles to heading `theta`, pointing away from the centre of a left
 /// turn: `(sin θ, −cos θ)`.
-fn normal(theta: f64) -> Vector2<f64> {
-    Vector2::new(libm::sin(theta), -libm::cos(theta))
+fn normal(theta: f64) -> Xy {
+    Xy::new(libm::sin(theta), -libm::cos(theta))
 }
 
 /// Advances `p` along an arc of curvature `k` by `s` metres (exact closed form): the chord of an
@@ -53,13 +83,13 @@ fn normal(theta: f64) -> Vector2<f64> {
 fn arc(p: Pose, k: f64, s: f64) -> Pose {
     if k.abs() < 1e-12 {
         Pose {
-            at: p.at + p.rotation() * Vector2::new(s, 0.0),
+            at: p.at.plus(p.rotate(Xy::new(s, 0.0))),
             heading: p.heading,
         }
     } else {
         let heading = p.heading + k * s;
         Pose {
-            at: p.at + (normal(heading) - normal(p.heading)) / k,
+            at: p.at.plus(normal(heading).minus(normal(p.heading)).over(k)),
             heading,
         }
     }
@@ -223,8 +253,7 @@ fn main() {
             // The footprint's centre, FOOTPRINT_CENTER_OFFSET ahead of the rear axle.
             let centre = t
                 .pose_at(s)
-                .isometry()
-                .transform_point(&Point2::new(FOOTPRINT_CENTER_OFFSET as f64, 0.0));
+                .transform_point(Xy::new(FOOTPRINT_CENTER_OFFSET as f64, 0.0));
             let pt = (centre.x as f32, centre.y as f32);
             write!(centers, "[{:?}, {:?}], ", pt.0, pt.1).unwrap();
             *slot = match points
