@@ -99,9 +99,11 @@
 //! a cluster's candidates and near set are compacted by counting instead of branching; every
 //! member of a measured cluster keeps its least squared distance, and all of them become clipped
 //! roots in one vectorised pass at the end; the centre's distance, which only decides pruning,
-//! is the processor's exact root; and the semantic pass computes every near object's clearance
-//! of every member of a cluster with one branch-free formula (no per-cluster cases, no dominance
-//! test). Each value comes from the same operations as on the car, so the masks and rows are
+//! is the processor's exact root; and the semantic pass computes each object's clearance with
+//! one branch-free formula over one range of samples, from the first to the last of the
+//! clusters within its reach, every sample starting at the clip (no per-cluster loops, cases
+//! or dominance test: a sample of a cluster out of an object's reach reads the clip for it
+//! either way). Each value comes from the same operations as on the car, so the masks and rows are
 //! the same bits (tested on random observations against the car's paths, run on the host).
 //!
 //! ```
@@ -622,7 +624,10 @@ impl Evaluator {
         // A disc wider than the margin holds every point whose squared distance to its centre
         // is below `f32::MIN_POSITIVE` (where `sqrt` is not `newton_sqrt`) by far: such a member
         // reads 0 either way, so the host's loop may take `newton_sqrt` for every member.
-        let wide_discs = W && objects.iter().all(|o| o.radius >= REACH_MARGIN);
+        if W && objects.iter().all(|o| o.radius >= REACH_MARGIN) {
+            self.semantic_wide(objects, allowed, f, rows);
+            return;
+        }
         let mut touched = 0u64;
         for cluster in &CLUSTERS {
             // A cluster no allowed trajectory uses is skipped (the sums read no member of it);
@@ -659,29 +664,6 @@ impl Evaluator {
                 continue;
             }
             touched |= cluster.trajectories;
-            if W && wide_discs {
-                // Every near object over every member, the one formula without a branch (see
-                // `disc_clearances`), which the compiler vectorises: the same values as the
-                // pruned cases below, whose tests only skip work.
-                let start = usize::from(cluster.samples[0]);
-                let end = usize::from(cluster.samples[1]);
-                if let (Some(points), Some(clearance)) = (
-                    SAMPLE_POINTS.get(start..end),
-                    self.clearance.get_mut(start..end),
-                ) {
-                    let mut bits = near;
-                    let mut first = true;
-                    while bits != 0 {
-                        let k = bits.trailing_zeros() as usize & (MAX_OBJECTS - 1);
-                        bits &= bits - 1;
-                        if let Some(o) = objects.get(k) {
-                            disc_clearances(clearance, points, o, first);
-                            first = false;
-                        }
-                    }
-                }
-                continue;
-            }
             let centre;
             (near, centre) = if near & (near - 1) == 0 {
                 (near, sqrt(last2))
@@ -711,6 +693,60 @@ impl Evaluator {
                     }
                 }
                 self.clearance[u] = c;
+            }
+        }
+        self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
+    }
+
+    /// [`Evaluator::semantic`] on a wide target, every disc wider than the margin: the same
+    /// values by whole ranges of samples instead of cluster by cluster. Every sample starts at
+    /// the clip; then each object takes the least of that and its clearance (the one formula of
+    /// `disc_clearances`, vectorised) over one range, from the first sample to the last of the
+    /// clusters within its reach that some allowed trajectory uses. A sample of a cluster not
+    /// within an object's reach (its centre at least the reach plus the spread away, the spread
+    /// rounded up) is at least the reach (the clip, the radius and the 1 mm margin) from the
+    /// object, far above the rounding of these distances: its clearance to that object is the
+    /// clip, which the least leaves as it is, so the ranges may cover such clusters. A sample no
+    /// allowed trajectory has is written and never read; the others read the least over the
+    /// objects within reach of their cluster, or the clip when none is, as the car's paths give
+    /// them (the least does not depend on the order it is taken in: no value is NaN or −0).
+    fn semantic_wide(
+        &mut self,
+        objects: &[Disc],
+        allowed: u64,
+        f: usize,
+        rows: &mut [Features; MAX_ACTIONS],
+    ) {
+        // Per object, the range of samples of the clusters within its reach.
+        let mut spans = [[UNIQUE_SAMPLES, 0usize]; MAX_OBJECTS];
+        let mut touched = 0u64;
+        for cluster in &CLUSTERS {
+            if cluster.trajectories & allowed == 0 {
+                continue;
+            }
+            let [cx, cy] = cluster.centre;
+            let start = usize::from(cluster.samples[0]);
+            let end = usize::from(cluster.samples[1]);
+            for (o, span) in objects.iter().zip(spans.iter_mut()) {
+                let (dx, dy) = (cx - o.x, cy - o.y);
+                let limit = o.reach + cluster.spread;
+                if dx * dx + dy * dy < limit * limit {
+                    touched |= cluster.trajectories;
+                    *span = [span[0].min(start), span[1].max(end)];
+                }
+            }
+        }
+        if touched == 0 {
+            // No sample within reach of an object: the rows hold ten clips already.
+            return;
+        }
+        fill(&mut self.clearance, SEMANTIC_CLIP);
+        for (o, &[start, end]) in objects.iter().zip(spans.iter()) {
+            if let (Some(points), Some(clearance)) = (
+                SAMPLE_POINTS.get(start..end),
+                self.clearance.get_mut(start..end),
+            ) {
+                disc_clearances(clearance, points, o);
             }
         }
         self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
@@ -783,14 +819,13 @@ impl Evaluator {
     }
 }
 
-/// On a wide target, the clearance of every member (`points`, `clearance`) to the disc `o`:
-/// written (`first`), or the least of it and the one written before. The one formula of
-/// [`Evaluator::semantic`]'s member loop, without a branch: the clip beyond the reach, else the
-/// root less the radius, at least 0 and at most the clip; `newton_sqrt` for every member, the
-/// same bits as `sqrt` for a disc wider than the margin (a member within `f32::MIN_POSITIVE`'s
-/// root of the centre reads 0 either way).
+/// On a wide target, the clearance of every sample (`points`) to the disc `o`, or the one in
+/// `clearance` when that is less. The one formula of [`Evaluator::semantic`]'s member loop,
+/// without a branch: the clip beyond the reach, else the root less the radius, at least 0 and at
+/// most the clip; `newton_sqrt` for every sample, the same bits as `sqrt` for a disc wider than
+/// the margin (a sample within `f32::MIN_POSITIVE`'s root of the centre reads 0 either way).
 #[inline(always)]
-fn disc_clearances(clearance: &mut [f32], points: &[[f32; 2]], o: &Disc, first: bool) {
+fn disc_clearances(clearance: &mut [f32], points: &[[f32; 2]], o: &Disc) {
     let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
     for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
         let (dx, dy) = (sx - ox, sy - oy);
@@ -798,7 +833,7 @@ fn disc_clearances(clearance: &mut [f32], points: &[[f32; 2]], o: &Disc, first: 
         let d = newton_sqrt(d2) - radius;
         let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
         let d = if d2 < reach2 { d } else { SEMANTIC_CLIP };
-        *c = if first { d } else { clipped(d, *c) };
+        *c = clipped(d, *c);
     }
 }
 

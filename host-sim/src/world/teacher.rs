@@ -334,9 +334,6 @@ pub struct Judgement {
     pub perceived: [f32; MAX_ACTIONS],
     /// The teacher's own (perceived-best) choice `ã`.
     pub choice: Option<ActionIndex>,
-    /// Cross-track error of every action's end against the path reference (m), what a
-    /// statement about the path is judged by ([`cross_track_errors`]).
-    pub cross: [f32; MAX_ACTIONS],
     /// The observation judged (a perturbation's corrected trajectory is measured in it): kept
     /// by [`Teacher::judge`] and [`Teacher::judge_checked`]; `None` from
     /// [`Teacher::judge_evaluation`], and a perturbation teacher then says nothing.
@@ -344,6 +341,13 @@ pub struct Judgement {
 }
 
 impl Judgement {
+    /// Cross-track error of every action's end against the path reference (m), what a
+    /// statement about the path is judged by ([`cross_track_errors`]). Computed when asked: a
+    /// statement about the path is rare among a run's ticks, and the judgement is made every tick.
+    pub fn cross(&self) -> [f32; MAX_ACTIONS] {
+        cross_track_errors(&self.evaluation.reference())
+    }
+
     /// Features of every action.
     pub fn table(&self) -> &FeatureTable {
         self.evaluation.table()
@@ -441,14 +445,12 @@ impl Teacher {
                 }
             }
         }
-        let cross = cross_track_errors(&evaluation.reference());
         Judgement {
             evaluation,
             best,
             latent,
             perceived,
             choice: choice.map(|(a, _)| a),
-            cross,
             observation: None,
         }
     }
@@ -570,7 +572,10 @@ pub fn statement_quantities(
     l: ActionIndex,
 ) -> (f32, f32) {
     match subject {
-        Feature::Path => (j.cross[t.get()], j.cross[l.get()]),
+        Feature::Path => {
+            let cross = j.cross();
+            (cross[t.get()], cross[l.get()])
+        }
         f => (j.table()[t][f.index()], j.table()[l][f.index()]),
     }
 }
@@ -722,14 +727,15 @@ mod tests {
         let mut t = Teacher::new(spec, 3);
         let obs = busy_scene();
         let j = t.judge(&obs).unwrap();
-        assert_eq!(j.cross, cross_track_errors(&obs.reference));
+        let cross = j.cross();
+        assert_eq!(cross, cross_track_errors(&obs.reference));
         let choice = j.choice.unwrap();
         let mut checked = 0;
         for a in j.allowed().iter().filter(|&a| a != choice) {
             let Some(Feedback::Semantic(s)) = t.feedback(FeedbackKind::Semantic, &j, a) else {
                 continue;
             };
-            let (ct, cl) = (j.cross[choice.get()], j.cross[a.get()]);
+            let (ct, cl) = (cross[choice.get()], cross[a.get()]);
             let want = match ct.partial_cmp(&cl).unwrap() {
                 std::cmp::Ordering::Less => Some(Polarity::Prefer),
                 std::cmp::Ordering::Greater => Some(Polarity::Avoid),
