@@ -2,7 +2,9 @@
 //! `target/release/examples/round_count KIND N`: the round of the learner bench
 //! (`benches/learner.rs`, group `round`) done N times, for counting its instructions with callgrind
 //! (`valgrind --tool=callgrind`: the count at N minus the count at 0, over N). KIND: dots (the
-//! 64 × 6 dot products), select (select alone, its scores kept), action, preference or semantic.
+//! 64 × 6 dot products), select (select alone, its scores kept), action, preference or semantic,
+//! or seal (`FeatureTable::seal`, which the evaluator does once per table it writes: on the host
+//! the table's copy feature by feature that the round's passes read, and its bound check).
 
 use std::hint::black_box;
 
@@ -16,6 +18,7 @@ fn main() {
     let kind = args.get(1).map_or("action", String::as_str);
     let n: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(20_000);
     let t = fixture::table(3);
+    let mut resealed = t.clone();
     let learner = fixture::warmed_learner();
     let feedbacks = fixture::feedbacks();
     let fb = feedbacks
@@ -42,10 +45,15 @@ fn main() {
                 );
                 black_box((chosen, &scores));
             }
+            ("seal", _) => {
+                let t = black_box(&mut resealed);
+                t.seal();
+                black_box(t);
+            }
             (_, Some(fb)) => {
                 black_box(fixture::round(&learner, &t, fb));
             }
-            _ => panic!("KIND: dots, select, action, preference or semantic"),
+            _ => panic!("KIND: dots, select, action, preference, semantic or seal"),
         }
     }
 }

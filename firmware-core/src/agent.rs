@@ -122,7 +122,8 @@ impl TickRecord {
 
 /// Learner and recent ticks: everything the car keeps between ticks, 6 392 bytes (the
 /// evaluator's 3 840 bytes of scratch live on the stack of [`Agent::act`], during the
-/// evaluation only; off the car each tick also keeps select's scores, 1 KiB more).
+/// evaluation only; off the car each tick also keeps select's scores, 1 KiB more, and its
+/// table's columns, 1.5 KiB more: see [`FeatureTable`]).
 ///
 /// [`Agent::new`] is a `const fn`, so firmware can place an agent in a `static` (for example a
 /// `static_cell::ConstStaticCell`) without building it on the stack first.

@@ -294,7 +294,11 @@ impl Evaluator {
         frame: &PathFrame,
         out: &mut FeatureTable,
     ) -> u64 {
-        self.clearances_with::<WIDE>(obs, frame, out)
+        let allowed = self.clearances_with::<WIDE>(obs, frame, out);
+        // On a host, the table's copy feature by feature for the learner's passes (nothing on
+        // the car).
+        out.seal();
+        allowed
     }
 
     /// [`Evaluator::clearances`] on the car's paths (`W` false) or the host's (`W` true, see
@@ -1196,6 +1200,25 @@ mod tests {
                 bits(&tables[0]),
                 bits(&tables[2]),
                 "observation {i}: {obs:?}"
+            );
+        }
+    }
+
+    /// The evaluator seals what it writes (on a host: the table's columns, which the learner's
+    /// passes read), whatever the table held.
+    #[test]
+    fn the_evaluation_is_sealed() {
+        let mut rng = Rng(0x2545_f491_4f6c_dd1d);
+        let mut table = FeatureTable::ZERO;
+        for i in 0..200 {
+            let obs = random_observation(&mut rng);
+            table[crate::ActionIndex::new(i % 64).unwrap()][0] = f32::NAN;
+            assert!(!table.is_sealed());
+            let allowed = Evaluator::new().evaluate(obs.check().unwrap(), &mut table);
+            assert_eq!(table.is_sealed(), WIDE);
+            assert_eq!(
+                table.check(allowed),
+                FeatureTable::from_rows(*table.rows()).check(allowed)
             );
         }
     }

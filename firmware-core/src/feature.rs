@@ -146,6 +146,17 @@ pub fn dot(a: &Features, b: &Features) -> f32 {
     s
 }
 
+/// [`dot`] of `w` and action `a`'s features read from a sealed table's columns: the same
+/// operations in the same order, the same bits.
+#[inline(always)]
+pub(crate) fn column_dot(w: &Weights, columns: &Columns, a: usize) -> f32 {
+    let mut s = 0.0f32;
+    for f in 0..FEATURE_COUNT {
+        s += w[f] * columns[f][a];
+    }
+    s
+}
+
 /// The correctly rounded square root (IEEE 754), as `libm::sqrtf` computes it: with the `std`
 /// feature `f32::sqrt`, the same bits (both correctly rounded; tested below on a dense sample and
 /// every special value, and exhaustively by `cargo test -p firmware-core --release --features
@@ -196,21 +207,81 @@ impl fmt::Display for FeatureError {
 
 impl core::error::Error for FeatureError {}
 
-/// The features of every action for one tick: `MAX_ACTIONS × FEATURE_COUNT` `f32`s (1.5 KiB).
-#[derive(Clone, PartialEq, Debug)]
+/// Every action's value of each feature, feature by feature: six columns of [`MAX_ACTIONS`]
+/// (a sealed table's, on a host: see [`FeatureTable`]).
+pub(crate) type Columns = [[f32; MAX_ACTIONS]; FEATURE_COUNT];
+
+/// The features of every action for one tick: `MAX_ACTIONS × FEATURE_COUNT` `f32`s (1.5 KiB),
+/// one row per action.
+///
+/// On a host (every target but the car's Cortex-M4F, `target_arch = "arm"`: where the learner's
+/// passes over the actions compute several `f32`s side by side) a table also keeps a copy of its
+/// entries feature by feature (six columns of 64, 1.5 KiB more), which those passes load as whole
+/// vectors instead of gathering each action's six features from its row, and whether every entry
+/// was within [`FEATURE_BOUND`], which [`FeatureTable::check`] then needs not look at again.
+/// [`FeatureTable::seal`] makes them (the evaluator does once it has written a table, and a table
+/// from [`FeatureTable::ZERO`] or [`FeatureTable::from_rows`] has them); a write through
+/// [`FeatureTable::rows_mut`] or `IndexMut` leaves them stale until the next seal, and the passes
+/// read the rows meanwhile. The same bits either way: each action's numbers come from the same
+/// operations in the same order. The car keeps the rows alone, and `seal` does nothing there.
+#[derive(Clone)]
 pub struct FeatureTable {
     rows: [Features; MAX_ACTIONS],
+    /// The host's copy feature by feature, and what the last seal found.
+    #[cfg(not(target_arch = "arm"))]
+    sealed: Sealed,
+}
+
+/// A host table's columns and bound check, as of its last seal.
+#[cfg(not(target_arch = "arm"))]
+#[derive(Clone, Copy)]
+struct Sealed {
+    columns: Columns,
+    /// Whether `columns` hold the rows' entries: no write since the last seal.
+    fresh: bool,
+    /// Whether every entry, allowed or not, was finite and within [`FEATURE_BOUND`] then.
+    in_bounds: bool,
+}
+
+/// What [`Sealed::of`] does, at run time: `rows` into `columns`, and whether every entry is
+/// finite and within [`FEATURE_BOUND`]. In loops the compiler vectorises (four entries of a
+/// column gathered into one vector, stored and compared whole): about 1 100 instructions a table
+/// on x86-64 (`examples/round_count seal`), where `Sealed::of`'s `const` loops take about 1 600.
+/// Not inlined: inlined into a caller's loop, the compiler was seen to leave it scalar.
+#[cfg(not(target_arch = "arm"))]
+#[inline(never)]
+fn transpose(rows: &[Features; MAX_ACTIONS], columns: &mut Columns) -> bool {
+    let mut good = true;
+    for a in 0..MAX_ACTIONS {
+        for f in 0..FEATURE_COUNT {
+            let x = rows[a][f];
+            columns[f][a] = x;
+            good &= x.abs() <= FEATURE_BOUND;
+        }
+    }
+    good
+}
+
+/// Whether every entry is finite and within [`FEATURE_BOUND`]: one comparison per entry (false
+/// for NaN and both infinities) without an early exit, which the compiler vectorises.
+#[inline(always)]
+fn all_in_bounds(rows: &[Features; MAX_ACTIONS]) -> bool {
+    rows.as_flattened()
+        .iter()
+        .fold(true, |good, x| good & (x.abs() <= FEATURE_BOUND))
 }
 
 impl FeatureTable {
     /// A table of zeros.
-    pub const ZERO: Self = Self {
-        rows: [[0.0; FEATURE_COUNT]; MAX_ACTIONS],
-    };
+    pub const ZERO: Self = Self::from_rows([[0.0; FEATURE_COUNT]; MAX_ACTIONS]);
 
-    /// A table from its rows.
+    /// A table from its rows (sealed).
     pub const fn from_rows(rows: [Features; MAX_ACTIONS]) -> Self {
-        Self { rows }
+        Self {
+            rows,
+            #[cfg(not(target_arch = "arm"))]
+            sealed: Sealed::of(&rows),
+        }
     }
 
     /// All rows, indexed by action.
@@ -219,23 +290,71 @@ impl FeatureTable {
         &self.rows
     }
 
-    /// All rows, mutable.
+    /// All rows, mutable. On a host the table is no longer sealed: the learner's passes read the
+    /// rows until [`FeatureTable::seal`].
     #[inline]
     pub fn rows_mut(&mut self) -> &mut [Features; MAX_ACTIONS] {
+        self.unseal();
         &mut self.rows
+    }
+
+    /// Makes the table's copy feature by feature and checks every entry against
+    /// [`FEATURE_BOUND`] once (on a host; nothing on the car), for the learner's passes over the
+    /// actions to load whole columns and [`FeatureTable::check`] to take that check's result. For
+    /// a table written through [`FeatureTable::rows_mut`] or `IndexMut` once it is written; the
+    /// evaluator seals what it writes.
+    #[inline]
+    pub fn seal(&mut self) {
+        #[cfg(not(target_arch = "arm"))]
+        {
+            let Sealed {
+                columns,
+                fresh,
+                in_bounds,
+            } = &mut self.sealed;
+            *in_bounds = transpose(&self.rows, columns);
+            *fresh = true;
+        }
+    }
+
+    /// Whether the table is sealed: always false on the car, which keeps no copy.
+    #[inline]
+    pub fn is_sealed(&self) -> bool {
+        self.columns().is_some()
+    }
+
+    /// The columns of a sealed table (never on the car).
+    #[inline(always)]
+    pub(crate) fn columns(&self) -> Option<&Columns> {
+        #[cfg(not(target_arch = "arm"))]
+        return self.sealed.fresh.then_some(&self.sealed.columns);
+        #[cfg(target_arch = "arm")]
+        return None;
+    }
+
+    /// Marks the copy feature by feature stale (on a host), before a write.
+    #[inline(always)]
+    fn unseal(&mut self) {
+        #[cfg(not(target_arch = "arm"))]
+        {
+            self.sealed.fresh = false;
+        }
     }
 
     /// Checks the rows of the allowed actions: finite, magnitude at most [`FEATURE_BOUND`].
     /// Rows of forbidden actions are never read by the learner and are not checked.
     pub fn check(&self, allowed: ActionMask) -> Result<(), FeatureError> {
-        // One comparison per entry, false for NaN and both infinities, over every row without an
-        // early exit, which the compiler vectorises (the evaluator's rows of forbidden actions are
-        // zeros); the first bad allowed row is looked for only when some row is bad.
-        let good = self
-            .rows
-            .as_flattened()
-            .iter()
-            .fold(true, |good, x| good & (x.abs() <= FEATURE_BOUND));
+        // One comparison per entry over every row (the evaluator's rows of forbidden actions are
+        // zeros), or the seal's of the same entries; the first bad allowed row is looked for
+        // only when some row is bad.
+        #[cfg(not(target_arch = "arm"))]
+        let good = if self.sealed.fresh {
+            self.sealed.in_bounds
+        } else {
+            all_in_bounds(&self.rows)
+        };
+        #[cfg(target_arch = "arm")]
+        let good = all_in_bounds(&self.rows);
         if good {
             return Ok(());
         }
@@ -249,6 +368,48 @@ impl FeatureTable {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(not(target_arch = "arm"))]
+impl Sealed {
+    /// The columns of `rows` and their bound check, for the `const` tables ([`FeatureTable::seal`]
+    /// does the same at run time).
+    const fn of(rows: &[Features; MAX_ACTIONS]) -> Self {
+        let mut columns = [[0.0; MAX_ACTIONS]; FEATURE_COUNT];
+        let mut in_bounds = true;
+        let mut a = 0;
+        while a < MAX_ACTIONS {
+            let mut f = 0;
+            while f < FEATURE_COUNT {
+                let x = rows[a][f];
+                columns[f][a] = x;
+                in_bounds &= x.abs() <= FEATURE_BOUND;
+                f += 1;
+            }
+            a += 1;
+        }
+        Self {
+            columns,
+            fresh: true,
+            in_bounds,
+        }
+    }
+}
+
+/// Equal rows: the host's copy feature by feature is not compared (a stale one is not wrong).
+impl PartialEq for FeatureTable {
+    fn eq(&self, other: &Self) -> bool {
+        self.rows == other.rows
+    }
+}
+
+/// The rows, as a derived `Debug` prints them (not the host's copy).
+impl fmt::Debug for FeatureTable {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("FeatureTable")
+            .field("rows", &self.rows)
+            .finish()
     }
 }
 
@@ -269,6 +430,7 @@ impl Index<ActionIndex> for FeatureTable {
 impl IndexMut<ActionIndex> for FeatureTable {
     #[inline]
     fn index_mut(&mut self, a: ActionIndex) -> &mut Features {
+        self.unseal();
         &mut self.rows[a.get()]
     }
 }
@@ -276,6 +438,7 @@ impl IndexMut<ActionIndex> for FeatureTable {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::policy::WIDE;
 
     #[test]
     fn layout_is_stable() {
@@ -305,6 +468,66 @@ mod tests {
         );
         t[a][2] = -FEATURE_BOUND;
         assert_eq!(t.check(ActionMask::ALL), Ok(()));
+    }
+
+    #[test]
+    fn a_sealed_table_checks_as_its_rows_do() {
+        let a = ActionIndex::new(5).unwrap();
+        let mut others = ActionMask::ALL;
+        others.remove(a);
+        for bad in [f32::NAN, f32::INFINITY, -2.0e4, FEATURE_BOUND, -0.0] {
+            let mut t = FeatureTable::ZERO;
+            t[a][2] = bad;
+            let open = t.check(ActionMask::ALL);
+            t.seal();
+            assert_eq!(t.is_sealed(), WIDE);
+            assert_eq!(t.check(ActionMask::ALL), open, "{bad}");
+            assert_eq!(t.check(others), Ok(()));
+            assert_eq!(
+                FeatureTable::from_rows(*t.rows()).check(ActionMask::ALL),
+                open
+            );
+        }
+    }
+
+    #[test]
+    fn writes_unseal_and_seal_makes_the_columns() {
+        assert_eq!(FeatureTable::ZERO.is_sealed(), WIDE);
+        let mut t = FeatureTable::ZERO;
+        for (a, row) in t.rows_mut().iter_mut().enumerate() {
+            for (f, x) in row.iter_mut().enumerate() {
+                *x = (a * FEATURE_COUNT + f) as f32 - 0.5;
+            }
+        }
+        assert!(!t.is_sealed());
+        let rows = *t.rows();
+        t.seal();
+        assert_eq!(t.is_sealed(), WIDE);
+        let sealed = FeatureTable::from_rows(rows);
+        assert_eq!(sealed.is_sealed(), WIDE);
+        for table in [&t, &sealed] {
+            if let Some(columns) = table.columns() {
+                for (a, row) in rows.iter().enumerate() {
+                    for f in 0..FEATURE_COUNT {
+                        assert_eq!(columns[f][a].to_bits(), row[f].to_bits());
+                    }
+                }
+            }
+        }
+        let a = ActionIndex::new(9).unwrap();
+        t[a][1] = 3.0;
+        assert!(!t.is_sealed());
+        assert_eq!(t.rows()[9][1], 3.0);
+        // Equal rows are equal tables, sealed or not.
+        let mut u = t.clone();
+        u.seal();
+        assert_eq!(t, u);
+        assert_eq!(format!("{t:?}"), format!("{u:?}"));
+        assert_ne!(t, sealed);
+        // A seal without a write changes nothing.
+        let before = u.clone();
+        u.seal();
+        assert_eq!(u.columns(), before.columns());
     }
 
     /// `f32::sqrt` (what [`ieee_sqrt`] is with the `std` feature) and `libm::sqrtf` (without it)

@@ -70,7 +70,7 @@ use serde::{Deserialize, Serialize};
 use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
 use crate::error::LearnError;
 use crate::evaluator::cross_track_errors;
-use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features, Weights, ieee_sqrt};
+use crate::feature::{Columns, FEATURE_COUNT, Feature, FeatureTable, Features, Weights, ieee_sqrt};
 use crate::observation::{PathReference, REFERENCE_COORDINATE_BOUND};
 use crate::policy::WIDE;
 
@@ -497,6 +497,18 @@ fn squared_distance(x: &Features, y: &Features) -> f32 {
     s
 }
 
+/// [`squared_distance`] from `x` to action `a`'s features read from a sealed table's columns:
+/// the same operations in the same order.
+#[inline(always)]
+fn column_squared_distance(x: &Features, columns: &Columns, a: usize) -> f32 {
+    let mut s = 0.0f32;
+    for i in 0..FEATURE_COUNT {
+        let d = x[i] - columns[i][a];
+        s += d * d;
+    }
+    s
+}
+
 impl PseudoLossSource for PreferenceFeedback {
     fn write_pseudo_loss(
         &self,
@@ -520,12 +532,23 @@ impl PseudoLossSource for PreferenceFeedback {
         // Every action's entry, allowed or not (a forbidden one is never read): the squares side
         // by side, then the roots (side by side too with the `std` feature, see `ieee_sqrt`),
         // each entry as `distance` computes it.
-        let rows = round.features().rows();
         let mut to_p = [0.0f32; MAX_ACTIONS];
         let mut to_np = [0.0f32; MAX_ACTIONS];
-        for i in 0..MAX_ACTIONS {
-            to_p[i] = squared_distance(p, &rows[i]);
-            to_np[i] = squared_distance(np, &rows[i]);
+        match round.features().columns() {
+            // A sealed table's columns, loaded whole.
+            Some(columns) => {
+                for i in 0..MAX_ACTIONS {
+                    to_p[i] = column_squared_distance(p, columns, i);
+                    to_np[i] = column_squared_distance(np, columns, i);
+                }
+            }
+            None => {
+                let rows = round.features().rows();
+                for i in 0..MAX_ACTIONS {
+                    to_p[i] = squared_distance(p, &rows[i]);
+                    to_np[i] = squared_distance(np, &rows[i]);
+                }
+            }
         }
         for i in 0..MAX_ACTIONS {
             out[i] = ieee_sqrt(to_p[i]) - ieee_sqrt(to_np[i]);
@@ -662,13 +685,18 @@ impl PseudoLossSource for SemanticFeedback {
                 out[a.get()] = 0.0;
             }
         }
-        let rows = round.features().rows();
+        let table = round.features();
         for s in self.statements() {
             let higher = s.wants_higher();
-            match (&cross, s.subject) {
-                (Some(cross), Feature::Path) => add_fails(round, higher, out, |a| cross[a]),
-                (_, subject) => {
-                    let f = subject.index();
+            match (&cross, s.subject, table.columns()) {
+                (Some(cross), Feature::Path, _) => add_fails(round, higher, out, |a| cross[a]),
+                // A sealed table's column, loaded whole.
+                (_, subject, Some(columns)) => {
+                    let column = &columns[subject.index()];
+                    add_fails(round, higher, out, |a| column[a])
+                }
+                (_, subject, None) => {
+                    let (rows, f) = (table.rows(), subject.index());
                     add_fails(round, higher, out, |a| rows[a][f])
                 }
             }

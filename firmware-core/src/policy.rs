@@ -14,7 +14,7 @@
 //! ```
 
 use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
-use crate::feature::{FeatureTable, Weights, dot};
+use crate::feature::{FeatureTable, Weights, column_dot, dot};
 
 /// The score `w · φ(s, a)` of one action.
 #[inline]
@@ -123,8 +123,18 @@ pub(crate) fn all_scores(w: &Weights, table: &FeatureTable) -> [f32; MAX_ACTIONS
 /// [`all_scores`] written into `out` (no array of scores on the stack to be copied there).
 #[inline(always)]
 fn score_all(w: &Weights, table: &FeatureTable, out: &mut [f32; MAX_ACTIONS]) {
-    for (s, row) in out.iter_mut().zip(table.rows()) {
-        *s = dot(w, row);
+    match table.columns() {
+        // A sealed table's columns, loaded whole.
+        Some(columns) => {
+            for (a, s) in out.iter_mut().enumerate() {
+                *s = column_dot(w, columns, a);
+            }
+        }
+        None => {
+            for (s, row) in out.iter_mut().zip(table.rows()) {
+                *s = dot(w, row);
+            }
+        }
     }
 }
 

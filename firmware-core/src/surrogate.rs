@@ -44,7 +44,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::action::{ActionIndex, ActionMask, MAX_ACTIONS};
-use crate::feature::{FEATURE_COUNT, Features, Weights, dot};
+use crate::feature::{FEATURE_COUNT, Features, Weights, column_dot, dot};
 use crate::feedback::{PseudoLoss, Round};
 use crate::policy;
 
@@ -174,8 +174,16 @@ pub fn generalized_hinge(w: &Weights, round: &Round<'_>, delta: &PseudoLoss) -> 
                 // `â` known before any score (action feedback always): each action's term as
                 // its score is computed, no array of scores.
                 (Some(hat), 0) => {
-                    let rows = table.rows();
-                    hinge_terms(hat, dot(w, &table[hat]), round, delta, |i| dot(w, &rows[i]))
+                    let s_hat = dot(w, &table[hat]);
+                    match table.columns() {
+                        Some(columns) => {
+                            hinge_terms(hat, s_hat, round, delta, |i| column_dot(w, columns, i))
+                        }
+                        None => {
+                            let rows = table.rows();
+                            hinge_terms(hat, s_hat, round, delta, |i| dot(w, &rows[i]))
+                        }
+                    }
                 }
                 _ => hinge_of(&policy::all_scores(w, table), round, delta),
             }

@@ -1,7 +1,9 @@
 //! The learner's round bit for bit as its first, straightforward code (kept here as the
 //! reference): the pseudo-loss's check and shift, the semantic pseudo-loss, the target `â` and both
 //! surrogates, on random rounds built to tie (features and weights on a coarse grid, few allowed
-//! actions or all of them, every kind of feedback). Every `f32` is compared by its bits.
+//! actions or all of them, every kind of feedback). Every `f32` is compared by its bits. Each
+//! round is played on its table as written (the rows) and on the same table sealed
+//! (`FeatureTable::seal`: on a host its columns, which the passes then read).
 
 use firmware_core::evaluator::cross_track_errors;
 use firmware_core::feedback::{PseudoLoss, PseudoLossSource};
@@ -53,6 +55,26 @@ fn reference_semantic(said: &SemanticFeedback, round: &Round<'_>) -> [f32; MAX_A
                 out[a.get()] += SEMANTIC_LOSS;
             }
         }
+    }
+    out
+}
+
+/// The preference pseudo-loss as first written: `‖φ_p − φ_a‖ − ‖φ_np − φ_a‖` over the allowed
+/// actions, each distance summed from index 0 (`f32::sqrt`: the bits of `libm::sqrtf`).
+fn reference_preference(said: &PreferenceFeedback, round: &Round<'_>) -> [f32; MAX_ACTIONS] {
+    let distance = |x: &[f32; FEATURE_COUNT], y: &[f32; FEATURE_COUNT]| {
+        let mut s = 0.0f32;
+        for i in 0..FEATURE_COUNT {
+            let d = x[i] - y[i];
+            s += d * d;
+        }
+        s.sqrt()
+    };
+    let (p, np) = (round.phi(said.preferred), round.phi(said.other));
+    let mut out = [0.0f32; MAX_ACTIONS];
+    for a in round.allowed() {
+        let phi = round.phi(a);
+        out[a.get()] = distance(p, phi) - distance(np, phi);
     }
     out
 }
@@ -149,7 +171,7 @@ fn grid(rng: &mut ChaCha8Rng) -> f32 {
     }
 }
 
-/// A table of [`grid`] values.
+/// A table of [`grid`] values (written through `rows_mut`: not sealed).
 fn grid_table(rng: &mut ChaCha8Rng) -> FeatureTable {
     let mut table = FeatureTable::ZERO;
     for row in table.rows_mut() {
@@ -157,7 +179,19 @@ fn grid_table(rng: &mut ChaCha8Rng) -> FeatureTable {
             *x = grid(rng);
         }
     }
+    assert!(!table.is_sealed());
     table
+}
+
+/// `table` as written and sealed: on a host the second one's passes read its columns, the
+/// first one's its rows (on a target without the columns, the same table twice).
+fn both(table: FeatureTable) -> [FeatureTable; 2] {
+    let mut sealed = table.clone();
+    sealed.seal();
+    assert_eq!(sealed.is_sealed(), !cfg!(target_arch = "arm"));
+    let bits = |t: &FeatureTable| t.rows().map(|row| row.map(f32::to_bits));
+    assert_eq!(bits(&sealed), bits(&table));
+    [table, sealed]
 }
 
 fn random_mask(rng: &mut ChaCha8Rng) -> ActionMask {
@@ -219,7 +253,7 @@ fn the_round_is_bit_for_bit_its_reference() {
     let mut rng = ChaCha8Rng::seed_from_u64(17);
     let (mut checked, mut refused) = (0, 0);
     for _ in 0..40_000 {
-        let table = grid_table(&mut rng);
+        let tables = both(grid_table(&mut rng));
         let mask = random_mask(&mut rng);
         let chosen = pick(&mut rng, mask);
         let w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
@@ -228,48 +262,54 @@ fn the_round_is_bit_for_bit_its_reference() {
             y: grid(&mut rng),
             heading: rng.random_range(-3.0f32..3.0),
         };
-        let round = Round::new(&table, mask, chosen)
-            .unwrap()
-            .with_reference(reference)
-            .unwrap();
         let fb = random_feedback(&mut rng, mask);
-        let got = pseudo_loss(&fb, &round);
-        let mut raw = [0.0f32; MAX_ACTIONS];
-        let written = match &fb {
-            Feedback::Semantic(said) if !said.is_empty() => {
-                raw = reference_semantic(said, &round);
-                Ok(())
-            }
-            _ => fb.write_pseudo_loss(&round, &mut raw),
-        };
-        let delta = match (written, got) {
-            (Err(e), Err(f)) => {
-                assert_eq!(e, f);
-                refused += 1;
-                continue;
-            }
-            (Ok(()), Ok(delta)) => delta,
-            (w, g) => panic!("{fb:?}: reference {w:?}, got {g:?}"),
-        };
-        let expected = reference_shift(&raw, mask).expect("a valid pseudo-loss");
-        assert_eq!(bits(delta.values()), bits(&expected), "{fb:?}");
-        assert!(
-            same(
-                &surrogate::generalized_hinge(&w, &round, &delta),
-                &reference_hinge(&w, &round, &expected)
-            ),
-            "{fb:?} {mask:?} {w:?}"
-        );
-        assert!(
-            same(
-                &surrogate::perceptron(&w, &round, &delta),
-                &reference_perceptron(&w, &round, &expected)
-            ),
-            "{fb:?}"
-        );
-        checked += 1;
+        for table in &tables {
+            let round = Round::new(table, mask, chosen)
+                .unwrap()
+                .with_reference(reference)
+                .unwrap();
+            let got = pseudo_loss(&fb, &round);
+            let mut raw = [0.0f32; MAX_ACTIONS];
+            let written = match &fb {
+                Feedback::Semantic(said) if !said.is_empty() => {
+                    raw = reference_semantic(said, &round);
+                    Ok(())
+                }
+                Feedback::Preference(said) if said.preferred != said.other => {
+                    raw = reference_preference(said, &round);
+                    Ok(())
+                }
+                _ => fb.write_pseudo_loss(&round, &mut raw),
+            };
+            let delta = match (written, got) {
+                (Err(e), Err(f)) => {
+                    assert_eq!(e, f);
+                    refused += 1;
+                    continue;
+                }
+                (Ok(()), Ok(delta)) => delta,
+                (w, g) => panic!("{fb:?}: reference {w:?}, got {g:?}"),
+            };
+            let expected = reference_shift(&raw, mask).expect("a valid pseudo-loss");
+            assert_eq!(bits(delta.values()), bits(&expected), "{fb:?}");
+            assert!(
+                same(
+                    &surrogate::generalized_hinge(&w, &round, &delta),
+                    &reference_hinge(&w, &round, &expected)
+                ),
+                "{fb:?} {mask:?} {w:?}"
+            );
+            assert!(
+                same(
+                    &surrogate::perceptron(&w, &round, &delta),
+                    &reference_perceptron(&w, &round, &expected)
+                ),
+                "{fb:?}"
+            );
+            checked += 1;
+        }
     }
-    assert!(checked > 30_000, "{checked} checked, {refused} refused");
+    assert!(checked > 60_000, "{checked} checked, {refused} refused");
 }
 
 /// A pseudo-loss judged against a round of other allowed actions (`learn_from_loss` takes any):
@@ -278,23 +318,26 @@ fn the_round_is_bit_for_bit_its_reference() {
 fn a_pseudo_loss_of_another_round_finds_the_same_target() {
     let mut rng = ChaCha8Rng::seed_from_u64(18);
     for _ in 0..5_000 {
-        let table = grid_table(&mut rng);
+        let tables = both(grid_table(&mut rng));
         let (m1, m2) = (random_mask(&mut rng), random_mask(&mut rng));
         let w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
-        let first = Round::new(&table, m1, pick(&mut rng, m1)).unwrap();
+        let (c1, c2) = (pick(&mut rng, m1), pick(&mut rng, m2));
         let fb = random_feedback(&mut rng, m1);
-        let Ok(delta) = pseudo_loss(&fb, &first) else {
-            continue;
-        };
-        let other = Round::new(&table, m2, pick(&mut rng, m2)).unwrap();
-        assert!(same(
-            &surrogate::generalized_hinge(&w, &other, &delta),
-            &reference_hinge(&w, &other, delta.values())
-        ));
-        assert_eq!(
-            surrogate::target(&w, &other, &delta),
-            reference_target(&reference_scores(&w, &other), &other, delta.values())
-        );
+        for table in &tables {
+            let first = Round::new(table, m1, c1).unwrap();
+            let Ok(delta) = pseudo_loss(&fb, &first) else {
+                continue;
+            };
+            let other = Round::new(table, m2, c2).unwrap();
+            assert!(same(
+                &surrogate::generalized_hinge(&w, &other, &delta),
+                &reference_hinge(&w, &other, delta.values())
+            ));
+            assert_eq!(
+                surrogate::target(&w, &other, &delta),
+                reference_target(&reference_scores(&w, &other), &other, delta.values())
+            );
+        }
     }
 }
 
@@ -370,14 +413,16 @@ fn select_is_bit_for_bit_its_reference() {
             w[rng.random_range(0..FEATURE_COUNT)] = f32::NAN;
         }
         let expected = reference_select(&w, &table, mask);
-        assert_eq!(policy::select(&w, &table, mask), expected);
-        let mut scores = [0.0f32; MAX_ACTIONS];
-        assert_eq!(
-            policy::select_scored(&w, &table, mask, &mut scores),
-            expected
-        );
-        for a in mask {
-            assert_eq!(scores[a.get()].to_bits(), dot(&w, &table[a]).to_bits());
+        for table in &both(table) {
+            assert_eq!(policy::select(&w, table, mask), expected);
+            let mut scores = [0.0f32; MAX_ACTIONS];
+            assert_eq!(
+                policy::select_scored(&w, table, mask, &mut scores),
+                expected
+            );
+            for a in mask {
+                assert_eq!(scores[a.get()].to_bits(), dot(&w, &table[a]).to_bits());
+            }
         }
     }
 }
@@ -390,30 +435,32 @@ fn a_round_with_its_scores_is_bit_for_bit_its_reference() {
     let mut rng = ChaCha8Rng::seed_from_u64(21);
     let mut checked = 0;
     for _ in 0..20_000 {
-        let table = grid_table(&mut rng);
+        let tables = both(grid_table(&mut rng));
         let mask = random_mask(&mut rng);
         let w: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
         let other: [f32; FEATURE_COUNT] = core::array::from_fn(|_| grid(&mut rng));
-        let mut scores = [0.0f32; MAX_ACTIONS];
-        let chosen = policy::select_scored(&w, &table, mask, &mut scores).unwrap();
-        let round = Round::new(&table, mask, chosen)
-            .unwrap()
-            .with_scores(&w, &scores);
         let fb = random_feedback(&mut rng, mask);
-        let Ok(delta) = pseudo_loss(&fb, &round) else {
-            continue;
-        };
-        for at in [w, other] {
-            assert!(same(
-                &surrogate::generalized_hinge(&at, &round, &delta),
-                &reference_hinge(&at, &round, delta.values())
-            ));
-            assert!(same(
-                &surrogate::perceptron(&at, &round, &delta),
-                &reference_perceptron(&at, &round, delta.values())
-            ));
+        for table in &tables {
+            let mut scores = [0.0f32; MAX_ACTIONS];
+            let chosen = policy::select_scored(&w, table, mask, &mut scores).unwrap();
+            let round = Round::new(table, mask, chosen)
+                .unwrap()
+                .with_scores(&w, &scores);
+            let Ok(delta) = pseudo_loss(&fb, &round) else {
+                continue;
+            };
+            for at in [w, other] {
+                assert!(same(
+                    &surrogate::generalized_hinge(&at, &round, &delta),
+                    &reference_hinge(&at, &round, delta.values())
+                ));
+                assert!(same(
+                    &surrogate::perceptron(&at, &round, &delta),
+                    &reference_perceptron(&at, &round, delta.values())
+                ));
+            }
+            checked += 1;
         }
-        checked += 1;
     }
-    assert!(checked > 10_000, "{checked} checked");
+    assert!(checked > 20_000, "{checked} checked");
 }

@@ -12,7 +12,8 @@ use firmware_core::{
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-/// A table of features drawn uniformly from [−1, 1).
+/// A table of features drawn uniformly from [−1, 1), sealed as the evaluator seals what it
+/// writes (see `FeatureTable::seal`).
 pub(crate) fn table(seed: u64) -> FeatureTable {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut t = FeatureTable::ZERO;
@@ -21,6 +22,7 @@ pub(crate) fn table(seed: u64) -> FeatureTable {
             *x = rng.random_range(-1.0f32..1.0);
         }
     }
+    t.seal();
     t
 }
 
