@@ -244,19 +244,6 @@ impl PseudoLoss {
         source: &S,
         round: &Round<'_>,
     ) -> Result<Self, LearnError> {
-        if WIDE {
-            // Written and shifted where it is returned, inside the `Result`: no copy of its 264
-            // bytes into it.
-            let mut out = Ok(Self::raw(source.is_absolute()));
-            if let Ok(delta) = &mut out
-                && let Err(e) = source
-                    .write_pseudo_loss(round, &mut delta.values)
-                    .and_then(|()| delta.shift(round.allowed()))
-            {
-                out = Err(e);
-            }
-            return out;
-        }
         let mut delta = Self::raw(source.is_absolute());
         source.write_pseudo_loss(round, &mut delta.values)?;
         delta.shift(round.allowed())?;
