@@ -368,6 +368,39 @@ fn the_shift_is_bit_for_bit_its_reference() {
     }
 }
 
+/// The shift with every action allowed (on a host its own second pass, `subtract_all`), on raw
+/// values that are nearly always accepted and tie often, the minimum often a zero of either sign:
+/// the same values and zero bits as the reference.
+#[test]
+fn the_shift_of_every_action_is_bit_for_bit_its_reference() {
+    let mut rng = ChaCha8Rng::seed_from_u64(23);
+    for case in 0..20_000 {
+        let raw: [f32; MAX_ACTIONS] = core::array::from_fn(|_| match case % 4 {
+            // Zeros of both signs and a few values above them.
+            0 => [-0.0, 0.0, 0.5, 1.0][rng.random_range(0..4usize)],
+            1 => grid(&mut rng),
+            2 => rng.random_range(-3i32..=3) as f32 * 0.25,
+            _ => match rng.random_range(0..2000u32) {
+                0 => f32::NAN,
+                1 => -2.0 * PSEUDO_LOSS_BOUND,
+                _ => grid(&mut rng),
+            },
+        });
+        let got = PseudoLoss::from_raw(raw, ActionMask::ALL);
+        match reference_shift(&raw, ActionMask::ALL) {
+            Some(expected) => {
+                let got = got.expect("accepted by the reference");
+                assert_eq!(bits(got.values()), bits(&expected), "{raw:?}");
+                let zeros = (0..MAX_ACTIONS)
+                    .filter(|&i| expected[i] == 0.0)
+                    .fold(0u64, |z, i| z | 1 << i);
+                assert_eq!(got.zeros(), zeros, "{raw:?}");
+            }
+            None => assert!(got.is_err()),
+        }
+    }
+}
+
 /// `policy::select` as first written: every allowed score in index order, the first taken and
 /// each later one that is not at most the best so far.
 fn reference_select(
