@@ -5,7 +5,8 @@
 //!
 //! * [`server`]: the car's controller over a link: a `protocol::car::CarNode` (the same state
 //!   machine the firmware runs), its flash, the poll loop.
-//! * [`cli`]: the `hil_mock` program: `keygen`, `serve`, `replay`, `bench-latency`.
+//! * `cli` (feature `cli`, on by default): the `hil_mock` program: `keygen`, `serve`, `replay`,
+//!   `bench-latency`.
 //! * [`key`]: key files (`hil_mock keygen`), and the rule that a program talking to the car
 //!   refuses to start without a key unless told `--insecure`.
 //! * [`flash`]: a file-backed emulation of two flash pages holding the car's persisted state
@@ -18,6 +19,7 @@
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod flash;
 pub mod key;

@@ -240,8 +240,17 @@ impl LinkAddress {
             Self::SlcanTcpListen(a) => {
                 Box::new(slcan::SlcanListener::bind(*a, slcan::DEFAULT_IDLE_TIMEOUT)?)
             }
+            #[cfg(feature = "serial")]
             Self::SlcanSerial { path, baud } => {
                 Box::new(slcan::SlcanLink::open_serial(path, *baud)?)
+            }
+            #[cfg(not(feature = "serial"))]
+            Self::SlcanSerial { .. } => {
+                return Err(LinkError::Address {
+                    address: self.to_string(),
+                    reason: "this build has no serial support; rebuild with --features serial"
+                        .into(),
+                });
             }
             #[cfg(feature = "socketcan")]
             Self::SocketCan(iface) => Box::new(socketcan::SocketCanLink::open(iface)?),

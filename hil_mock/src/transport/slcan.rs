@@ -20,6 +20,7 @@
 use std::collections::VecDeque;
 use std::io::{ErrorKind, Read, Write};
 use std::net::{SocketAddr, SocketAddrV4, TcpListener, TcpStream};
+#[cfg(feature = "serial")]
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -46,6 +47,7 @@ impl Stream for Box<dyn Stream> {
     }
 }
 
+#[cfg(feature = "serial")]
 impl Stream for Box<dyn serialport::SerialPort> {
     fn set_read_timeout(&mut self, timeout: Option<Duration>) -> std::io::Result<()> {
         // serialport needs a positive timeout; "forever" becomes a long one.
@@ -153,7 +155,8 @@ impl SlcanLink<Box<dyn Stream>> {
         SlcanLink::new(Box::new(stream), Role::Device, format!("slcan/tcp {local}"))
     }
 
-    /// Opens a serial device as the host.
+    /// Opens a serial device as the host (feature `serial`, on by default).
+    #[cfg(feature = "serial")]
     pub fn open_serial(path: &Path, baud: u32) -> Result<Self, LinkError> {
         let port = serialport::new(path.to_string_lossy(), baud)
             .timeout(Duration::from_millis(10))
