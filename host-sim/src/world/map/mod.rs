@@ -132,6 +132,11 @@ fn axis_start(g: f64, cell: i64, d: f64) -> (i64, f64, f64) {
 pub struct Viewpoint {
     gx: f64,
     gy: f64,
+    /// The point's cell.
+    cx: i64,
+    cy: i64,
+    /// The cell's index in the padded clearance (0, a cell of the ring, outside the grid).
+    at: usize,
     clearance: u16,
 }
 
@@ -373,9 +378,8 @@ impl OccupancyGrid {
     /// sensor's 1 cm quantization; `raycast_agrees_with_the_cell_by_cell_traversal` checks
     /// every beam of many poses on every map).
     pub fn raycast(&self, x: f64, y: f64, angle: f64, max_range: f64) -> f64 {
-        let (gx, gy) = self.to_grid(x, y);
         let a = angle - self.origin[2];
-        self.cast(gx, gy, libm::cos(a), libm::sin(a), max_range)
+        self.cast(&self.viewpoint(x, y), libm::cos(a), libm::sin(a), max_range)
     }
 
     /// [`OccupancyGrid::raycast`] along the unit vector `(dx, dy)` (world frame) instead of an
@@ -383,30 +387,34 @@ impl OccupancyGrid {
     /// beams by the car's heading). The same distance as `raycast` at the vector's angle, to
     /// rounding.
     pub fn raycast_along(&self, x: f64, y: f64, along: (f64, f64), max_range: f64) -> f64 {
-        let (gx, gy) = self.to_grid(x, y);
         let (gdx, gdy) = self.grid_direction(along);
-        self.cast(gx, gy, gdx, gdy, max_range)
+        self.cast(&self.viewpoint(x, y), gdx, gdy, max_range)
     }
 
     /// The unit vector `(dx, dy)` of the world frame in the grid's (turned by the origin's yaw).
     #[inline]
-    fn grid_direction(&self, (dx, dy): (f64, f64)) -> (f64, f64) {
+    pub(crate) fn grid_direction(&self, (dx, dy): (f64, f64)) -> (f64, f64) {
         (
             dx * self.cos_yaw + dy * self.sin_yaw,
             -dx * self.sin_yaw + dy * self.cos_yaw,
         )
     }
 
-    /// The traversal of [`OccupancyGrid::raycast`] from grid point `(gx, gy)` along the unit
-    /// vector `(dx, dy)` (grid frame).
-    fn cast(&self, gx: f64, gy: f64, dx: f64, dy: f64, max_range: f64) -> f64 {
-        let (cx, cy) = (floor_to_int(gx), floor_to_int(gy));
-        // The cell's index in the padded clearance; every move below is to a neighbour of the
-        // free square around the cell, on the array (its ring at worst, which is 0 and ends it).
-        let Some(mut at) = self.padded(cx, cy) else {
-            return 0.0;
-        };
-        let mut c = self.clearance[at];
+    /// The traversal of [`OccupancyGrid::raycast`] from `view` along the unit vector `(dx, dy)`
+    /// (grid frame). The start's cell, its index and its clearance come with the view, computed
+    /// once for every ray from it.
+    fn cast(&self, view: &Viewpoint, dx: f64, dy: f64, max_range: f64) -> f64 {
+        let Viewpoint {
+            gx,
+            gy,
+            cx,
+            cy,
+            mut at,
+            clearance: mut c,
+        } = *view;
+        // Outside the grid or in a blocked cell: 0. Otherwise every move below is to a neighbour
+        // of the free square around the cell, on the array (its ring at worst, which is 0 and
+        // ends it).
         if c == 0 {
             return 0.0;
         }
@@ -484,8 +492,9 @@ impl OccupancyGrid {
         // Free a cell beyond the reach: the cast would end at the reach (no cast needed). One
         // viewpoint for both.
         let view = self.viewpoint(a.0, a.1);
-        self.free_by_points_from(&view, along, reach + self.resolution, 2)
-            || self.raycast_from(&view, along, reach) >= reach
+        let along = self.grid_direction(along);
+        self.free_by_points_in_grid(&view, along, (reach + self.resolution) / self.resolution, 2)
+            || self.raycast_in_grid(&view, along, reach) >= reach
     }
 
     /// Whether every point of the segment from `(x, y)` along the unit vector `(dx, dy)` (world
@@ -506,17 +515,36 @@ impl OccupancyGrid {
     #[inline]
     pub fn viewpoint(&self, x: f64, y: f64) -> Viewpoint {
         let (gx, gy) = self.to_grid(x, y);
-        let clearance = self
-            .padded(floor_to_int(gx), floor_to_int(gy))
-            .map_or(0, |i| self.clearance[i]);
-        Viewpoint { gx, gy, clearance }
+        let (cx, cy) = (floor_to_int(gx), floor_to_int(gy));
+        let (at, clearance) = self
+            .padded(cx, cy)
+            .map_or((0, 0), |i| (i, self.clearance[i]));
+        Viewpoint {
+            gx,
+            gy,
+            cx,
+            cy,
+            at,
+            clearance,
+        }
     }
 
     /// [`OccupancyGrid::raycast_along`] from `view` (the same distance, bit for bit).
     #[inline]
     pub fn raycast_from(&self, view: &Viewpoint, along: (f64, f64), max_range: f64) -> f64 {
-        let (gdx, gdy) = self.grid_direction(along);
-        self.cast(view.gx, view.gy, gdx, gdy, max_range)
+        self.raycast_in_grid(view, self.grid_direction(along), max_range)
+    }
+
+    /// [`OccupancyGrid::raycast_from`] along `along` turned into the grid's frame already
+    /// ([`OccupancyGrid::grid_direction`]): the same distance, bit for bit.
+    #[inline]
+    pub(crate) fn raycast_in_grid(
+        &self,
+        view: &Viewpoint,
+        (gdx, gdy): (f64, f64),
+        max_range: f64,
+    ) -> f64 {
+        self.cast(view, gdx, gdy, max_range)
     }
 
     /// Whether every point of the segment from `view` along the unit vector `along` (world frame)
@@ -544,13 +572,31 @@ impl OccupancyGrid {
         length: f64,
         points: u32,
     ) -> bool {
+        self.free_by_points_in_grid(
+            view,
+            self.grid_direction(along),
+            length / self.resolution,
+            points,
+        )
+    }
+
+    /// [`OccupancyGrid::free_by_points_from`] along `along` turned into the grid's frame
+    /// already, for `cells = length / resolution` cells: the same answer, for a caller that
+    /// computes the direction and the length in cells once (the scan's beams, whose lengths do
+    /// not change from tick to tick).
+    #[inline(always)]
+    pub(crate) fn free_by_points_in_grid(
+        &self,
+        view: &Viewpoint,
+        (gdx, gdy): (f64, f64),
+        cells: f64,
+        points: u32,
+    ) -> bool {
         const MARGIN: f64 = 1.0e-6;
         let start = f64::from(view.clearance);
         if start < 2.0 || points == 0 {
             return false;
         }
-        let (gdx, gdy) = self.grid_direction(along);
-        let cells = length / self.resolution;
         let m = gdx.abs().max(gdy.abs());
         // The free stretch so far: σ in [0, free).
         let mut free = start - 1.0;
