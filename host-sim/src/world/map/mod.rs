@@ -164,6 +164,8 @@ pub struct OccupancyGrid {
     /// `(c + 1, r + 1)`), so that a ray cast, which never moves more than one cell beyond the free
     /// square it leaves, stays on the array without checking its bounds ([`Self::padded`]).
     clearance: Vec<u16>,
+    /// `width` and `height` as `f64` (what [`Self::padded_at`] compares grid coordinates with).
+    extent: [f64; 2],
     /// Where the map came from (for messages).
     source: PathBuf,
 }
@@ -245,6 +247,7 @@ impl OccupancyGrid {
             sin_yaw: libm::sin(origin[2]),
             cells,
             clearance,
+            extent: [width as f64, height as f64],
             source,
         }
     }
@@ -365,6 +368,23 @@ impl OccupancyGrid {
             return None;
         }
         Some((cy as usize + 1) * (self.width + 2) + cx as usize + 1)
+    }
+
+    /// [`Self::padded`] of the cell of grid point `(x, y)`: the same index for every `x` and `y`
+    /// but NaN (which `floor_to_int` puts in cell 0). A coordinate lies in a cell of the grid
+    /// (its floor in `0..width`) exactly when it is in `[0, width)`, and there its floor is its
+    /// truncation: two comparisons a coordinate instead of `floor_to_int`'s saturating conversion,
+    /// its correction and the bounds checks. (Truncated through `i64`, whose saturating
+    /// conversion costs fewer instructions than `usize`'s; a side is at most
+    /// [`MAX_IMAGE_SIDE`] cells.)
+    #[inline(always)]
+    fn padded_at(&self, x: f64, y: f64) -> Option<usize> {
+        let [w, h] = self.extent;
+        if x >= 0.0 && y >= 0.0 && x < w && y < h {
+            Some((y as i64 as usize + 1) * (self.width + 2) + x as i64 as usize + 1)
+        } else {
+            None
+        }
     }
 
     /// Distance from `(x, y)` along heading `angle` (world frame, radians) to the first cell
@@ -604,7 +624,7 @@ impl OccupancyGrid {
             let at = cells * (f64::from(i) / f64::from(points));
             let (x, y) = (view.gx + gdx * at, view.gy + gdy * at);
             let c = self
-                .padded(floor_to_int(x), floor_to_int(y))
+                .padded_at(x, y)
                 .map_or(0.0, |i| f64::from(self.clearance[i]));
             let sigma = at * m;
             if c < 1.0 || sigma - (c - 1.0) + MARGIN >= free - MARGIN {
@@ -626,7 +646,7 @@ impl OccupancyGrid {
         let cells = length / self.resolution;
         let (ex, ey) = (view.gx + gdx * cells, view.gy + gdy * cells);
         let end = self
-            .padded(floor_to_int(ex), floor_to_int(ey))
+            .padded_at(ex, ey)
             .map_or(0.0, |i| f64::from(self.clearance[i]));
         cells * gdx.abs().max(gdy.abs()) + 1.0e-6 < (start - 1.0) + (end - 1.0)
     }
@@ -746,6 +766,45 @@ mod tests {
             x ^= x << 17;
             let v = (x as i64) as f64 / (1u64 << (x % 60)) as f64;
             assert_eq!(floor_to_int(v), v.floor() as i64, "{v}");
+        }
+    }
+
+    #[test]
+    fn padded_at_is_padded_of_the_floor() {
+        let g = room();
+        let (w, h) = (g.width() as f64, g.height() as f64);
+        let mut edges = vec![0.0, -0.0, 1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY];
+        for v in [w, h] {
+            for d in [-1.0, 0.0, 1.0] {
+                edges.push(v + d);
+                edges.push(f64::from_bits((v + d).to_bits() - 1));
+                edges.push(f64::from_bits((v + d).to_bits() + 1));
+            }
+        }
+        edges.extend([1.0e-300, -1.0e-300, 0.5, -0.5, -1.0, 2.9999999999999996]);
+        let mut x = 0x0123_4567_89AB_CDEFu64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x % 1_000_000) as f64 / 1_000_000.0 * (w + 4.0) - 2.0
+        };
+        let random: Vec<f64> = (0..20_000).map(|_| next()).collect();
+        for (&a, &b) in edges
+            .iter()
+            .flat_map(|a| edges.iter().map(move |b| (a, b)))
+            .chain(
+                random
+                    .iter()
+                    .zip(random.iter().skip(1))
+                    .map(|(a, b)| (a, b)),
+            )
+        {
+            assert_eq!(
+                g.padded_at(a, b),
+                g.padded(floor_to_int(a), floor_to_int(b)),
+                "{a} {b}"
+            );
         }
     }
 
