@@ -223,7 +223,7 @@ pub fn run_with(
         }
         let given = match &mut tutor {
             Some(t) => {
-                let (given, info) = t.tick(&mut teacher, step, &j, decision.action);
+                let (given, info) = t.tick(&mut teacher, step, j, decision.action);
                 informativeness.extend(info);
                 given
             }

@@ -793,12 +793,7 @@ mod tests {
         for (&a, &b) in edges
             .iter()
             .flat_map(|a| edges.iter().map(move |b| (a, b)))
-            .chain(
-                random
-                    .iter()
-                    .zip(random.iter().skip(1))
-                    .map(|(a, b)| (a, b)),
-            )
+            .chain(random.iter().zip(random.iter().skip(1)))
         {
             assert_eq!(
                 g.padded_at(a, b),
