@@ -59,7 +59,7 @@ pub use super::config::{MAX_STEPS, Mode, RunConfig, StartJitter};
 use super::kinds::{Given, Tutor};
 use super::record::{RunReport, StepRecord};
 use crate::world::sim::{Episode, ResetReason};
-use crate::world::teacher::Teacher;
+use crate::world::teacher::{Judgement, Teacher};
 
 /// The learner as the experiment sees it: on this machine or on the car's controller.
 ///
@@ -198,6 +198,8 @@ pub fn run_with(
     let mut corrections = 0u32;
     let mut resets = [0u32; 4];
     let whole_scan = link.reads_whole_scan();
+    // One judgement, written over each tick (the first tick's made new).
+    let mut judged: Option<Judgement> = None;
     for step in 0..config.steps {
         let obs = if whole_scan {
             episode.observe()
@@ -208,14 +210,20 @@ pub fn run_with(
         let checked = obs
             .check()
             .map_err(|e| anyhow::anyhow!("step {step}: observation refused: {e}"))?;
-        let j = teacher.judge_checked(checked);
+        let j = match &mut judged {
+            Some(j) => {
+                teacher.judge_checked_into(checked, j);
+                j
+            }
+            none => none.insert(teacher.judge_checked(checked)),
+        };
         let decision = link.act_evaluated(step, &obs, &j.evaluation)?;
         if decision.allowed != j.allowed() {
             bail!("step {step}: the learner's and the teacher's collision masks differ");
         }
         let given = match &mut tutor {
             Some(t) => {
-                let (given, info) = t.tick(&mut teacher, step, &j, decision.action);
+                let (given, info) = t.tick(&mut teacher, step, j, decision.action);
                 informativeness.extend(info);
                 given
             }

@@ -140,6 +140,9 @@ pub struct Episode {
     params: CarParams,
     /// The footprint test's constants for `params` on the scenario's map.
     footprint: Footprint,
+    /// Per beam, its [`scan_cut`] and a cell more, in cells of the scenario's map (what
+    /// [`Episode::observe_near`] reads the clearance along before it casts a beam).
+    cut_cells: [f64; SCAN_BEAMS],
     car: CarState,
     /// Arc length of the car's projection onto the path.
     s: f64,
@@ -163,7 +166,9 @@ impl Episode {
     pub fn starting_at(scenario: Arc<Scenario>, start: Pose) -> Self {
         let params = CarParams::MUSHR;
         let footprint = params.footprint_on(&scenario.map);
+        let cut_cells = cut_cells(&scenario.map);
         let mut e = Self {
+            cut_cells,
             car: CarState::at(start),
             start,
             scenario,
@@ -243,7 +248,13 @@ impl Episode {
     /// a learner in this process, which acts on the host's evaluation; the car, which gets the
     /// observation itself, needs [`Episode::observe`].
     pub fn observe_near(&self) -> Observation {
-        observe_within(&self.scenario, &self.car, self.s, &SCAN_CUT)
+        observe_within(
+            &self.scenario,
+            &self.car,
+            self.s,
+            &SCAN_CUT,
+            &self.cut_cells,
+        )
     }
 
     /// One control tick standing still (the teacher stopped the car: an E-stop): the car's speed
@@ -413,17 +424,35 @@ const SCAN_FREE_POINTS: u32 = 2;
 /// centimetres, lengths in millimetres, the heading in 10⁻⁴ rad), so that the learner and the
 /// teacher see the same numbers in process as over the link.
 pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
-    observe_within(scenario, car, s, &[SCAN_MAX_RANGE as f64; SCAN_BEAMS])
+    // Every cut at the sensor's range: no beam reads the clearance along it (`cut_cells` unread).
+    observe_within(
+        scenario,
+        car,
+        s,
+        &[SCAN_MAX_RANGE as f64; SCAN_BEAMS],
+        &[0.0; SCAN_BEAMS],
+    )
+}
+
+/// Per beam, its [`scan_cut`] and a cell more in cells of `map` (`(cut + resolution) /
+/// resolution`, as [`OccupancyGrid::free_by_points_from`] computes it from the length).
+///
+/// [`OccupancyGrid::free_by_points_from`]: crate::world::map::OccupancyGrid::free_by_points_from
+fn cut_cells(map: &crate::world::map::OccupancyGrid) -> [f64; SCAN_BEAMS] {
+    let res = map.resolution();
+    SCAN_CUT.map(|cut| (cut + res) / res)
 }
 
 /// [`observe`] with beam `j` cast only to `cut[j]` (at most [`SCAN_MAX_RANGE`]): a beam that
 /// reaches it reads `SCAN_MAX_RANGE`, every other the range `observe` gives it (the same
-/// traversal, stopped earlier).
+/// traversal, stopped earlier). `cut_cells[j]` is `cut[j]` and a cell more in cells of the map
+/// ([`cut_cells`]), read for the beams cut short of `SCAN_MAX_RANGE` only.
 fn observe_within(
     scenario: &Scenario,
     car: &CarState,
     s: f64,
     cut: &[f64; SCAN_BEAMS],
+    cut_cells: &[f64; SCAN_BEAMS],
 ) -> Observation {
     let pose = car.pose;
     let map = &scenario.map;
@@ -436,20 +465,23 @@ fn observe_within(
     // more reads what its cast would give, SCAN_MAX_RANGE, without the cast.
     let view = map.viewpoint(pose.x, pose.y);
     let free = (f64::from(view.clearance_cells()) - 2.0) * map.resolution();
-    for (j, (&(bc, bs), &cut)) in BEAM_DIRECTIONS.iter().zip(cut).enumerate() {
+    for (j, ((&(bc, bs), &cut), &cells)) in
+        BEAM_DIRECTIONS.iter().zip(cut).zip(cut_cells).enumerate()
+    {
         if cut <= free {
             scan.ranges[j] = SCAN_MAX_RANGE;
             continue;
         }
-        let along = (cos * bc - sin * bs, sin * bc + cos * bs);
+        // The beam's direction in the grid's frame, once for both tests below.
+        let along = map.grid_direction((cos * bc - sin * bs, sin * bc + cos * bs));
         // Free a cell beyond the cut: the cast would reach the cut (no cast needed).
         if cut < SCAN_MAX_RANGE as f64
-            && map.free_by_points_from(&view, along, cut + map.resolution(), SCAN_FREE_POINTS)
+            && map.free_by_points_in_grid(&view, along, cells, SCAN_FREE_POINTS)
         {
             scan.ranges[j] = SCAN_MAX_RANGE;
             continue;
         }
-        let r = map.raycast_from(&view, along, cut);
+        let r = map.raycast_in_grid(&view, along, cut);
         scan.ranges[j] = if r >= cut {
             SCAN_MAX_RANGE
         } else {

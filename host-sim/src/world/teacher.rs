@@ -412,8 +412,36 @@ impl Teacher {
     /// observation, for example). The judgement holds no observation: a perturbation cannot be
     /// measured in it (see [`Judgement::observation`]).
     pub fn judge_evaluation(&mut self, evaluation: Evaluation) -> Judgement {
-        let table = evaluation.table();
-        let allowed = evaluation.allowed();
+        let mut judgement = Judgement {
+            evaluation,
+            best: None,
+            latent: [0.0; MAX_ACTIONS],
+            perceived: [0.0; MAX_ACTIONS],
+            choice: None,
+            observation: None,
+        };
+        self.perceive(&mut judgement);
+        judgement
+    }
+
+    /// [`Teacher::judge_checked`] written over `into` (a judgement of another observation), the
+    /// same judgement bit for bit and the same draws of the teacher's generator: a run judging
+    /// every tick reuses one judgement instead of moving an evaluation's table (3 KiB on a host)
+    /// and the judgement around it into a new one each tick.
+    pub fn judge_checked_into(&mut self, obs: ValidObservation<'_>, into: &mut Judgement) {
+        self.evaluator.evaluation_into(obs, &mut into.evaluation);
+        self.perceive(into);
+        match &mut into.observation {
+            Some(kept) => kept.clone_from(obs.get()),
+            none => *none = Some(obs.get().clone()),
+        }
+    }
+
+    /// The best action, the latent and perceived losses and the teacher's choice of `j`'s
+    /// evaluation, into `j` (its observation left as it is).
+    fn perceive(&mut self, j: &mut Judgement) {
+        let table = j.evaluation.table();
+        let allowed = j.evaluation.allowed();
         // Every score once: the best is `policy::select`'s (highest, lowest index on ties).
         let mut score = [0.0f32; MAX_ACTIONS];
         policy::scores(&self.spec.weights, table, allowed, &mut score);
@@ -423,8 +451,10 @@ impl Teacher {
                 best = Some(a);
             }
         }
-        let mut latent = [0.0f32; MAX_ACTIONS];
-        let mut perceived = [0.0f32; MAX_ACTIONS];
+        let latent = &mut j.latent;
+        let perceived = &mut j.perceived;
+        latent.fill(0.0);
+        perceived.fill(0.0);
         let mut choice: Option<(ActionIndex, f32)> = None;
         if let Some(b) = best {
             let top = score[b.get()];
@@ -445,14 +475,8 @@ impl Teacher {
                 }
             }
         }
-        Judgement {
-            evaluation,
-            best,
-            latent,
-            perceived,
-            choice: choice.map(|(a, _)| a),
-            observation: None,
-        }
+        j.best = best;
+        j.choice = choice.map(|(a, _)| a);
     }
 
     /// Whether the teacher corrects the learner's action `chosen`.

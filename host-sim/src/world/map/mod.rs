@@ -132,6 +132,11 @@ fn axis_start(g: f64, cell: i64, d: f64) -> (i64, f64, f64) {
 pub struct Viewpoint {
     gx: f64,
     gy: f64,
+    /// The point's cell.
+    cx: i64,
+    cy: i64,
+    /// The cell's index in the padded clearance (0, a cell of the ring, outside the grid).
+    at: usize,
     clearance: u16,
 }
 
@@ -159,6 +164,8 @@ pub struct OccupancyGrid {
     /// `(c + 1, r + 1)`), so that a ray cast, which never moves more than one cell beyond the free
     /// square it leaves, stays on the array without checking its bounds ([`Self::padded`]).
     clearance: Vec<u16>,
+    /// `width` and `height` as `f64` (what [`Self::padded_at`] compares grid coordinates with).
+    extent: [f64; 2],
     /// Where the map came from (for messages).
     source: PathBuf,
 }
@@ -240,6 +247,7 @@ impl OccupancyGrid {
             sin_yaw: libm::sin(origin[2]),
             cells,
             clearance,
+            extent: [width as f64, height as f64],
             source,
         }
     }
@@ -362,6 +370,23 @@ impl OccupancyGrid {
         Some((cy as usize + 1) * (self.width + 2) + cx as usize + 1)
     }
 
+    /// [`Self::padded`] of the cell of grid point `(x, y)`: the same index for every `x` and `y`
+    /// but NaN (which `floor_to_int` puts in cell 0). A coordinate lies in a cell of the grid
+    /// (its floor in `0..width`) exactly when it is in `[0, width)`, and there its floor is its
+    /// truncation: two comparisons a coordinate instead of `floor_to_int`'s saturating conversion,
+    /// its correction and the bounds checks. (Truncated through `i64`, whose saturating
+    /// conversion costs fewer instructions than `usize`'s; a side is at most
+    /// [`MAX_IMAGE_SIDE`] cells.)
+    #[inline(always)]
+    fn padded_at(&self, x: f64, y: f64) -> Option<usize> {
+        let [w, h] = self.extent;
+        if x >= 0.0 && y >= 0.0 && x < w && y < h {
+            Some((y as i64 as usize + 1) * (self.width + 2) + x as i64 as usize + 1)
+        } else {
+            None
+        }
+    }
+
     /// Distance from `(x, y)` along heading `angle` (world frame, radians) to the first cell
     /// that is not free, at most `max_range`. A ray starting in a blocked cell returns 0.
     ///
@@ -373,9 +398,8 @@ impl OccupancyGrid {
     /// sensor's 1 cm quantization; `raycast_agrees_with_the_cell_by_cell_traversal` checks
     /// every beam of many poses on every map).
     pub fn raycast(&self, x: f64, y: f64, angle: f64, max_range: f64) -> f64 {
-        let (gx, gy) = self.to_grid(x, y);
         let a = angle - self.origin[2];
-        self.cast(gx, gy, libm::cos(a), libm::sin(a), max_range)
+        self.cast(&self.viewpoint(x, y), libm::cos(a), libm::sin(a), max_range)
     }
 
     /// [`OccupancyGrid::raycast`] along the unit vector `(dx, dy)` (world frame) instead of an
@@ -383,30 +407,34 @@ impl OccupancyGrid {
     /// beams by the car's heading). The same distance as `raycast` at the vector's angle, to
     /// rounding.
     pub fn raycast_along(&self, x: f64, y: f64, along: (f64, f64), max_range: f64) -> f64 {
-        let (gx, gy) = self.to_grid(x, y);
         let (gdx, gdy) = self.grid_direction(along);
-        self.cast(gx, gy, gdx, gdy, max_range)
+        self.cast(&self.viewpoint(x, y), gdx, gdy, max_range)
     }
 
     /// The unit vector `(dx, dy)` of the world frame in the grid's (turned by the origin's yaw).
     #[inline]
-    fn grid_direction(&self, (dx, dy): (f64, f64)) -> (f64, f64) {
+    pub(crate) fn grid_direction(&self, (dx, dy): (f64, f64)) -> (f64, f64) {
         (
             dx * self.cos_yaw + dy * self.sin_yaw,
             -dx * self.sin_yaw + dy * self.cos_yaw,
         )
     }
 
-    /// The traversal of [`OccupancyGrid::raycast`] from grid point `(gx, gy)` along the unit
-    /// vector `(dx, dy)` (grid frame).
-    fn cast(&self, gx: f64, gy: f64, dx: f64, dy: f64, max_range: f64) -> f64 {
-        let (cx, cy) = (floor_to_int(gx), floor_to_int(gy));
-        // The cell's index in the padded clearance; every move below is to a neighbour of the
-        // free square around the cell, on the array (its ring at worst, which is 0 and ends it).
-        let Some(mut at) = self.padded(cx, cy) else {
-            return 0.0;
-        };
-        let mut c = self.clearance[at];
+    /// The traversal of [`OccupancyGrid::raycast`] from `view` along the unit vector `(dx, dy)`
+    /// (grid frame). The start's cell, its index and its clearance come with the view, computed
+    /// once for every ray from it.
+    fn cast(&self, view: &Viewpoint, dx: f64, dy: f64, max_range: f64) -> f64 {
+        let Viewpoint {
+            gx,
+            gy,
+            cx,
+            cy,
+            mut at,
+            clearance: mut c,
+        } = *view;
+        // Outside the grid or in a blocked cell: 0. Otherwise every move below is to a neighbour
+        // of the free square around the cell, on the array (its ring at worst, which is 0 and
+        // ends it).
         if c == 0 {
             return 0.0;
         }
@@ -484,8 +512,9 @@ impl OccupancyGrid {
         // Free a cell beyond the reach: the cast would end at the reach (no cast needed). One
         // viewpoint for both.
         let view = self.viewpoint(a.0, a.1);
-        self.free_by_points_from(&view, along, reach + self.resolution, 2)
-            || self.raycast_from(&view, along, reach) >= reach
+        let along = self.grid_direction(along);
+        self.free_by_points_in_grid(&view, along, (reach + self.resolution) / self.resolution, 2)
+            || self.raycast_in_grid(&view, along, reach) >= reach
     }
 
     /// Whether every point of the segment from `(x, y)` along the unit vector `(dx, dy)` (world
@@ -506,17 +535,36 @@ impl OccupancyGrid {
     #[inline]
     pub fn viewpoint(&self, x: f64, y: f64) -> Viewpoint {
         let (gx, gy) = self.to_grid(x, y);
-        let clearance = self
-            .padded(floor_to_int(gx), floor_to_int(gy))
-            .map_or(0, |i| self.clearance[i]);
-        Viewpoint { gx, gy, clearance }
+        let (cx, cy) = (floor_to_int(gx), floor_to_int(gy));
+        let (at, clearance) = self
+            .padded(cx, cy)
+            .map_or((0, 0), |i| (i, self.clearance[i]));
+        Viewpoint {
+            gx,
+            gy,
+            cx,
+            cy,
+            at,
+            clearance,
+        }
     }
 
     /// [`OccupancyGrid::raycast_along`] from `view` (the same distance, bit for bit).
     #[inline]
     pub fn raycast_from(&self, view: &Viewpoint, along: (f64, f64), max_range: f64) -> f64 {
-        let (gdx, gdy) = self.grid_direction(along);
-        self.cast(view.gx, view.gy, gdx, gdy, max_range)
+        self.raycast_in_grid(view, self.grid_direction(along), max_range)
+    }
+
+    /// [`OccupancyGrid::raycast_from`] along `along` turned into the grid's frame already
+    /// ([`OccupancyGrid::grid_direction`]): the same distance, bit for bit.
+    #[inline]
+    pub(crate) fn raycast_in_grid(
+        &self,
+        view: &Viewpoint,
+        (gdx, gdy): (f64, f64),
+        max_range: f64,
+    ) -> f64 {
+        self.cast(view, gdx, gdy, max_range)
     }
 
     /// Whether every point of the segment from `view` along the unit vector `along` (world frame)
@@ -544,13 +592,31 @@ impl OccupancyGrid {
         length: f64,
         points: u32,
     ) -> bool {
+        self.free_by_points_in_grid(
+            view,
+            self.grid_direction(along),
+            length / self.resolution,
+            points,
+        )
+    }
+
+    /// [`OccupancyGrid::free_by_points_from`] along `along` turned into the grid's frame
+    /// already, for `cells = length / resolution` cells: the same answer, for a caller that
+    /// computes the direction and the length in cells once (the scan's beams, whose lengths do
+    /// not change from tick to tick).
+    #[inline(always)]
+    pub(crate) fn free_by_points_in_grid(
+        &self,
+        view: &Viewpoint,
+        (gdx, gdy): (f64, f64),
+        cells: f64,
+        points: u32,
+    ) -> bool {
         const MARGIN: f64 = 1.0e-6;
         let start = f64::from(view.clearance);
         if start < 2.0 || points == 0 {
             return false;
         }
-        let (gdx, gdy) = self.grid_direction(along);
-        let cells = length / self.resolution;
         let m = gdx.abs().max(gdy.abs());
         // The free stretch so far: σ in [0, free).
         let mut free = start - 1.0;
@@ -558,7 +624,7 @@ impl OccupancyGrid {
             let at = cells * (f64::from(i) / f64::from(points));
             let (x, y) = (view.gx + gdx * at, view.gy + gdy * at);
             let c = self
-                .padded(floor_to_int(x), floor_to_int(y))
+                .padded_at(x, y)
                 .map_or(0.0, |i| f64::from(self.clearance[i]));
             let sigma = at * m;
             if c < 1.0 || sigma - (c - 1.0) + MARGIN >= free - MARGIN {
@@ -580,7 +646,7 @@ impl OccupancyGrid {
         let cells = length / self.resolution;
         let (ex, ey) = (view.gx + gdx * cells, view.gy + gdy * cells);
         let end = self
-            .padded(floor_to_int(ex), floor_to_int(ey))
+            .padded_at(ex, ey)
             .map_or(0.0, |i| f64::from(self.clearance[i]));
         cells * gdx.abs().max(gdy.abs()) + 1.0e-6 < (start - 1.0) + (end - 1.0)
     }
@@ -700,6 +766,40 @@ mod tests {
             x ^= x << 17;
             let v = (x as i64) as f64 / (1u64 << (x % 60)) as f64;
             assert_eq!(floor_to_int(v), v.floor() as i64, "{v}");
+        }
+    }
+
+    #[test]
+    fn padded_at_is_padded_of_the_floor() {
+        let g = room();
+        let (w, h) = (g.width() as f64, g.height() as f64);
+        let mut edges = vec![0.0, -0.0, 1e300, -1e300, f64::INFINITY, f64::NEG_INFINITY];
+        for v in [w, h] {
+            for d in [-1.0, 0.0, 1.0] {
+                edges.push(v + d);
+                edges.push(f64::from_bits((v + d).to_bits() - 1));
+                edges.push(f64::from_bits((v + d).to_bits() + 1));
+            }
+        }
+        edges.extend([1.0e-300, -1.0e-300, 0.5, -0.5, -1.0, 2.9999999999999996]);
+        let mut x = 0x0123_4567_89AB_CDEFu64;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x % 1_000_000) as f64 / 1_000_000.0 * (w + 4.0) - 2.0
+        };
+        let random: Vec<f64> = (0..20_000).map(|_| next()).collect();
+        for (&a, &b) in edges
+            .iter()
+            .flat_map(|a| edges.iter().map(move |b| (a, b)))
+            .chain(random.iter().zip(random.iter().skip(1)))
+        {
+            assert_eq!(
+                g.padded_at(a, b),
+                g.padded(floor_to_int(a), floor_to_int(b)),
+                "{a} {b}"
+            );
         }
     }
 
