@@ -356,6 +356,10 @@ impl Evaluator {
     /// sample of the others (into `clearance`). Returns the trajectories that do not collide, and
     /// those with a sample nearer than the clip to a scan point, one bit per action.
     fn obstacles<const W: bool>(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
+        #[cfg(not(target_arch = "arm"))]
+        if W {
+            return self.obstacles_wide(ranges);
+        }
         let Self {
             points,
             shorter,
@@ -552,6 +556,86 @@ impl Evaluator {
                     let root = clipped(newton_sqrt(best), OBSTACLE_CLIP);
                     *c = if best < clip2 { root } else { OBSTACLE_CLIP };
                 }
+            }
+        }
+        Obstacles::Measured {
+            allowed: !collided,
+            touched,
+        }
+    }
+
+    /// [`Evaluator::obstacles`] on a wide target: every sample measured against every scan point
+    /// within reach, [`LANES`] samples side by side, without the clusters' pruning (see "On the
+    /// host" in the module documentation). The same mask, the same clearance for every sample
+    /// of a trajectory that does not collide, and `touched` the same on those trajectories.
+    ///
+    /// The least squared distance of a sample over every point within reach is the least over
+    /// its cluster's near set whenever it is below the clip's square (that point is in the near
+    /// set, and the least of the same values is the same whatever the order: none is NaN or
+    /// −0), and at least the clip's square otherwise, where both read the clip's square. So
+    /// every sample's collision test and clearance come from the same number as on the car;
+    /// what the car's pass skips (a cluster beyond the clip, one within the collision radius
+    /// of its centre's nearest point, the members whose trajectories all collide already) is
+    /// what these give them too, or is never read.
+    #[cfg(not(target_arch = "arm"))]
+    fn obstacles_wide(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
+        // The beams within reach, one bit each (those the car's pass bins: the bin it gives a
+        // beam, a truncation, is below RANGE_BINS exactly when the product is, the range being
+        // finite and not negative), then their scan points side by side, as the car's pass
+        // computes them.
+        let mut within = 0u64;
+        for (j, (&r, &reach)) in ranges.iter().zip(BEAM_REACH.iter()).enumerate() {
+            let binned = r * (1.0 / RANGE_BIN_WIDTH) < RANGE_BINS as f32;
+            within |= u64::from(r < reach && binned) << j;
+        }
+        if within == 0 {
+            return Obstacles::Clear;
+        }
+        let mut n = 0usize;
+        while within != 0 {
+            let j = within.trailing_zeros() as usize & (SCAN_BEAMS - 1);
+            within &= within - 1;
+            let r = ranges[j];
+            self.points[n & (SCAN_BEAMS - 1)] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
+            n += 1;
+        }
+        let points = &self.points[..n.min(SCAN_BEAMS)];
+        let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
+        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
+        let (mut collided, mut touched) = (0u64, 0u64);
+        for (k, c) in self.clearance[..LANE_CHUNKS * LANES]
+            .chunks_exact_mut(LANES)
+            .enumerate()
+        {
+            let [sx, sy] = &SAMPLE_LANES[k];
+            let mut best = [clip2; LANES];
+            for &[px, py] in points {
+                for l in 0..LANES {
+                    let dx = px - sx[l];
+                    let dy = py - sy[l];
+                    best[l] = clipped(dx * dx + dy * dy, best[l]);
+                }
+            }
+            // The trajectories of the lanes within the clip: none when no lane is (every
+            // sample belongs to some trajectory).
+            let of = &LANE_TRAJECTORIES[k];
+            let mut within = 0u64;
+            for (&b, &of) in best.iter().zip(of) {
+                within |= if b < clip2 { of } else { 0 };
+            }
+            if within == 0 {
+                c.fill(OBSTACLE_CLIP);
+                continue;
+            }
+            touched |= within;
+            if best.iter().fold(false, |any, &b| any | (b < collide2)) {
+                for (&b, &of) in best.iter().zip(of) {
+                    collided |= if b < collide2 { of } else { 0 };
+                }
+            }
+            for (c, &b) in c.iter_mut().zip(&best) {
+                let root = clipped(newton_sqrt(b), OBSTACLE_CLIP);
+                *c = if b < clip2 { root } else { OBSTACLE_CLIP };
             }
         }
         Obstacles::Measured {
@@ -995,6 +1079,48 @@ enum Obstacles {
 fn members(cluster: &Cluster) -> impl Iterator<Item = usize> {
     (usize::from(cluster.samples[0])..usize::from(cluster.samples[1])).map(|u| u & (SCRATCH - 1))
 }
+
+/// Samples side by side in a wide target's obstacle pass.
+#[cfg(not(target_arch = "arm"))]
+const LANES: usize = 16;
+
+/// Chunks of [`LANES`] samples that cover every sample.
+#[cfg(not(target_arch = "arm"))]
+const LANE_CHUNKS: usize = UNIQUE_SAMPLES.div_ceil(LANES);
+
+#[cfg(not(target_arch = "arm"))]
+const _: () = assert!(LANE_CHUNKS * LANES <= PAD_SAMPLE);
+
+/// Where no sample is: a lane past the last sample, farther than any scan point's reach.
+#[cfg(not(target_arch = "arm"))]
+const NOWHERE: f32 = 1.0e3;
+
+/// The samples' coordinates, [`LANES`] at a time: `[x, y]` of chunk `k`, samples
+/// `k · LANES ..` (the lanes past the last sample [`NOWHERE`]).
+#[cfg(not(target_arch = "arm"))]
+static SAMPLE_LANES: [[[f32; LANES]; 2]; LANE_CHUNKS] = {
+    let mut out = [[[NOWHERE; LANES]; 2]; LANE_CHUNKS];
+    let mut u = 0;
+    while u < UNIQUE_SAMPLES {
+        out[u / LANES][0][u % LANES] = SAMPLE_POINTS[u][0];
+        out[u / LANES][1][u % LANES] = SAMPLE_POINTS[u][1];
+        u += 1;
+    }
+    out
+};
+
+/// Every sample's trajectories, [`LANES`] at a time (none for the lanes past the last sample).
+#[cfg(not(target_arch = "arm"))]
+static LANE_TRAJECTORIES: [[u64; LANES]; LANE_CHUNKS] = {
+    let mut out = [[0; LANES]; LANE_CHUNKS];
+    let mut u = 0;
+    while u < UNIQUE_SAMPLES {
+        assert!(SAMPLE_TRAJECTORIES[u] != 0, "every sample has a trajectory");
+        out[u / LANES][u % LANES] = SAMPLE_TRAJECTORIES[u];
+        u += 1;
+    }
+    out
+};
 
 /// Range bins below the first that holds only beams at least the clip plus the largest spread
 /// (and the margin) long: `shorter[CLOSE_BINS]` holds every beam shorter.
