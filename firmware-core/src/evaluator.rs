@@ -723,8 +723,9 @@ impl Evaluator {
         // A disc wider than the margin holds every point whose squared distance to its centre
         // is below `f32::MIN_POSITIVE` (where `sqrt` is not `newton_sqrt`) by far: such a member
         // reads 0 either way, so the host's loop may take `newton_sqrt` for every member.
+        #[cfg(not(target_arch = "arm"))]
         if W && objects.iter().all(|o| o.radius >= REACH_MARGIN) {
-            self.semantic_wide(objects, allowed, f, rows);
+            self.semantic_lanes(objects, allowed, f, rows);
             return;
         }
         let mut touched = 0u64;
@@ -798,55 +799,65 @@ impl Evaluator {
     }
 
     /// [`Evaluator::semantic`] on a wide target, every disc wider than the margin: the same
-    /// values by whole ranges of samples instead of cluster by cluster. Every sample starts at
-    /// the clip; then each object takes the least of that and its clearance (the one formula of
-    /// `disc_clearances`, vectorised) over one range, from the first sample to the last of the
-    /// clusters within its reach that some allowed trajectory uses. A sample of a cluster not
-    /// within an object's reach (its centre at least the reach plus the spread away, the spread
-    /// rounded up) is at least the reach (the clip, the radius and the 1 mm margin) from the
-    /// object, far above the rounding of these distances: its clearance to that object is the
-    /// clip, which the least leaves as it is, so the ranges may cover such clusters. A sample no
-    /// allowed trajectory has is written and never read; the others read the least over the
-    /// objects within reach of their cluster, or the clip when none is, as the car's paths give
-    /// them (the least does not depend on the order it is taken in: no value is NaN or −0).
-    fn semantic_wide(
+    /// values, [`LANES`] samples side by side. Each lane starts at the clip and takes the least
+    /// of that and its clearance to each object whose reach comes within the lanes' bounding
+    /// box, by one formula without a branch (the general member loop's: the clip beyond the
+    /// reach, else the root less the radius, at least 0 and at most the clip; `newton_sqrt` for
+    /// every lane, the same bits as `sqrt` for a disc wider than the margin, since a sample
+    /// within `f32::MIN_POSITIVE`'s root of the centre reads 0 either way). A sample no allowed trajectory has is
+    /// written and never read; every other reads the least over the objects of the class
+    /// within reach of its cluster, as the car's paths give it: an object out of a sample's
+    /// reach (its squared distance at least the reach's square, as the formula computes it)
+    /// gives the clip, which the least leaves as it is; a box whose nearest point's squared
+    /// distance to the object is at least the reach's square has every lane out of reach (the
+    /// differences, squares and sums are rounded monotonically, and no lane's difference is
+    /// smaller than the box's); and the least does not depend on the order it is taken in (no
+    /// value is NaN or −0). `touched` holds the trajectories of every chunk with a lane below the
+    /// clip (a trajectory whose samples all read the clip sums them to ten clips, exactly).
+    #[cfg(not(target_arch = "arm"))]
+    fn semantic_lanes(
         &mut self,
         objects: &[Disc],
         allowed: u64,
         f: usize,
         rows: &mut [Features; MAX_ACTIONS],
     ) {
-        // Per object, the range of samples of the clusters within its reach.
-        let mut spans = [[UNIQUE_SAMPLES, 0usize]; MAX_OBJECTS];
         let mut touched = 0u64;
-        for cluster in &CLUSTERS {
-            if cluster.trajectories & allowed == 0 {
-                continue;
-            }
-            let [cx, cy] = cluster.centre;
-            let start = usize::from(cluster.samples[0]);
-            let end = usize::from(cluster.samples[1]);
-            for (o, span) in objects.iter().zip(spans.iter_mut()) {
-                let (dx, dy) = (cx - o.x, cy - o.y);
-                let limit = o.reach + cluster.spread;
-                if dx * dx + dy * dy < limit * limit {
-                    touched |= cluster.trajectories;
-                    *span = [span[0].min(start), span[1].max(end)];
+        for (k, c) in self.clearance[..LANE_CHUNKS * LANES]
+            .chunks_exact_mut(LANES)
+            .enumerate()
+        {
+            let [sx, sy] = &SAMPLE_LANES[k];
+            let [[x0, x1], [y0, y1]] = LANE_BOXES[k];
+            let mut least = [SEMANTIC_CLIP; LANES];
+            for o in objects {
+                // The box's nearest point's distance from the object, by coordinate.
+                let dx = at_least(at_least(x0 - o.x, o.x - x1), 0.0);
+                let dy = at_least(at_least(y0 - o.y, o.y - y1), 0.0);
+                if dx * dx + dy * dy >= o.reach2 {
+                    continue;
+                }
+                let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
+                for l in 0..LANES {
+                    let (dx, dy) = (sx[l] - ox, sy[l] - oy);
+                    let d2 = dx * dx + dy * dy;
+                    let d = newton_sqrt(d2) - radius;
+                    let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
+                    let d = if d2 < reach2 { d } else { SEMANTIC_CLIP };
+                    least[l] = clipped(d, least[l]);
                 }
             }
+            if least
+                .iter()
+                .fold(false, |any, &d| any | (d < SEMANTIC_CLIP))
+            {
+                touched |= LANE_UNION[k];
+            }
+            c.copy_from_slice(&least);
         }
         if touched == 0 {
-            // No sample within reach of an object: the rows hold ten clips already.
+            // No sample within the clip of an object: the rows hold ten clips already.
             return;
-        }
-        fill(&mut self.clearance, SEMANTIC_CLIP);
-        for (o, &[start, end]) in objects.iter().zip(spans.iter()) {
-            if let (Some(points), Some(clearance)) = (
-                SAMPLE_POINTS.get(start..end),
-                self.clearance.get_mut(start..end),
-            ) {
-                disc_clearances(clearance, points, o);
-            }
         }
         self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
     }
@@ -915,24 +926,6 @@ impl Evaluator {
                 SEMANTIC_CLIP
             };
         }
-    }
-}
-
-/// On a wide target, the clearance of every sample (`points`) to the disc `o`, or the one in
-/// `clearance` when that is less. The one formula of [`Evaluator::semantic`]'s member loop,
-/// without a branch: the clip beyond the reach, else the root less the radius, at least 0 and at
-/// most the clip; `newton_sqrt` for every sample, the same bits as `sqrt` for a disc wider than
-/// the margin (a sample within `f32::MIN_POSITIVE`'s root of the centre reads 0 either way).
-#[inline(always)]
-fn disc_clearances(clearance: &mut [f32], points: &[[f32; 2]], o: &Disc) {
-    let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
-    for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
-        let (dx, dy) = (sx - ox, sy - oy);
-        let d2 = dx * dx + dy * dy;
-        let d = newton_sqrt(d2) - radius;
-        let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
-        let d = if d2 < reach2 { d } else { SEMANTIC_CLIP };
-        *c = clipped(d, *c);
     }
 }
 
@@ -1104,6 +1097,49 @@ static SAMPLE_LANES: [[[f32; LANES]; 2]; LANE_CHUNKS] = {
     while u < UNIQUE_SAMPLES {
         out[u / LANES][0][u % LANES] = SAMPLE_POINTS[u][0];
         out[u / LANES][1][u % LANES] = SAMPLE_POINTS[u][1];
+        u += 1;
+    }
+    out
+};
+
+/// The box around chunk `k`'s samples, `[[x_min, x_max], [y_min, y_max]]` (the lanes past the
+/// last sample left out).
+#[cfg(not(target_arch = "arm"))]
+static LANE_BOXES: [[[f32; 2]; 2]; LANE_CHUNKS] = {
+    let mut out = [[[f32::MAX, f32::MIN]; 2]; LANE_CHUNKS];
+    let mut u = 0;
+    while u < UNIQUE_SAMPLES {
+        let b = &mut out[u / LANES];
+        let mut i = 0;
+        while i < 2 {
+            let v = SAMPLE_POINTS[u][i];
+            if v < b[i][0] {
+                b[i][0] = v;
+            }
+            if v > b[i][1] {
+                b[i][1] = v;
+            }
+            i += 1;
+        }
+        u += 1;
+    }
+    out
+};
+
+/// The greater of `a` and `b` (no NaN here).
+#[cfg(not(target_arch = "arm"))]
+#[inline(always)]
+fn at_least(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// The trajectories some sample of chunk `k` belongs to.
+#[cfg(not(target_arch = "arm"))]
+static LANE_UNION: [u64; LANE_CHUNKS] = {
+    let mut out = [0; LANE_CHUNKS];
+    let mut u = 0;
+    while u < UNIQUE_SAMPLES {
+        out[u / LANES] |= SAMPLE_TRAJECTORIES[u];
         u += 1;
     }
     out
