@@ -316,7 +316,12 @@ impl Evaluator {
             Obstacles::Clear => u64::MAX,
             Obstacles::Measured { allowed, .. } => allowed,
         };
-        start_rows(allowed, frame, rows);
+        if W {
+            #[cfg(not(target_arch = "arm"))]
+            start_rows_wide(allowed, frame, rows);
+        } else {
+            start_rows(allowed, frame, rows);
+        }
         if let Obstacles::Measured { allowed, touched } = obstacles {
             let f = Feature::Obstacles.index();
             self.sum_rows(allowed, touched, f, OBSTACLE_CLIP, rows);
@@ -956,6 +961,60 @@ fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS
         [row[Feature::Path.index()], row[Feature::Right.index()]] = frame.path_and_side(a);
     });
 }
+
+/// [`start_rows`] on a wide target: the path and side features of every action computed side by
+/// side, then every row written whole, without the loops over bits. The end in the reference's
+/// frame is nalgebra's `inverse_transform_point` written out, the same operations in the same
+/// order (the translation taken off, then the conjugate rotation: `re·x − im·y`,
+/// `im·x + re·y` with `im` the sine negated).
+#[cfg(not(target_arch = "arm"))]
+fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS]) {
+    const CLIPS: f32 = SAMPLES as f32;
+    let iso = &frame.reference;
+    let (re, im) = (iso.rotation.re, -iso.rotation.im);
+    let (tx, ty) = (iso.translation.vector.x, iso.translation.vector.y);
+    let mut path = [0.0f32; MAX_ACTIONS];
+    let mut side = [0.0f32; MAX_ACTIONS];
+    for a in 0..MAX_ACTIONS {
+        let (x, y) = (END_X[a], END_Y[a]);
+        let (vx, vy) = (x - tx, y - ty);
+        let (lx, ly) = (re * vx - im * vy, im * vx + re * vy);
+        let error = libm::fabsf(lx) + libm::fabsf(ly);
+        path[a] = if error < PATH_CLIP { error } else { PATH_CLIP };
+        side[a] = -RIGHT_SCALE * y;
+    }
+    for (a, row) in rows.iter_mut().enumerate() {
+        *row = if allowed >> a & 1 != 0 {
+            [CLIPS, CLIPS, CLIPS, CLIPS, path[a], side[a]]
+        } else {
+            [0.0; FEATURE_COUNT]
+        };
+    }
+}
+
+/// The trajectories' ends, one array per coordinate.
+#[cfg(not(target_arch = "arm"))]
+static END_X: [f32; MAX_ACTIONS] = {
+    let mut out = [0.0; MAX_ACTIONS];
+    let mut a = 0;
+    while a < MAX_ACTIONS {
+        out[a] = END_POINTS[a][0];
+        a += 1;
+    }
+    out
+};
+
+/// See [`END_X`].
+#[cfg(not(target_arch = "arm"))]
+static END_Y: [f32; MAX_ACTIONS] = {
+    let mut out = [0.0; MAX_ACTIONS];
+    let mut a = 0;
+    while a < MAX_ACTIONS {
+        out[a] = END_POINTS[a][1];
+        a += 1;
+    }
+    out
+};
 
 /// Sets the clearance of every sample to `value` (the unused slots above stay 0).
 #[inline]
