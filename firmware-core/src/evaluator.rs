@@ -95,16 +95,25 @@
 //!
 //! The pruning above is tuned for the car's instruction counts (cheap branches, one `f32` at a
 //! time). A host that computes several `f32`s side by side (`policy::WIDE`: every target but
-//! `arm`) takes other paths through the same passes, without the branches that only skip work:
-//! a cluster's candidates and near set are compacted by counting instead of branching; every
-//! member of a measured cluster keeps its least squared distance, and all of them become clipped
-//! roots in one vectorised pass at the end; the centre's distance, which only decides pruning,
-//! is the processor's exact root; and the semantic pass computes each object's clearance with
-//! one branch-free formula over one range of samples, from the first to the last of the
-//! clusters within its reach, every sample starting at the clip (no per-cluster loops, cases
-//! or dominance test: a sample of a cluster out of an object's reach reads the clip for it
-//! either way). Each value comes from the same operations as on the car, so the masks and rows are
-//! the same bits (tested on random observations against the car's paths, run on the host).
+//! `arm`) takes other exact algorithms, without the branches and the bookkeeping that only skip
+//! work, on the samples sixteen at a time (`LANES`, one array per coordinate; the lanes past the
+//! last sample lie far from everything):
+//!
+//! * the obstacle pass measures every sample against every scan point within reach (the beams
+//!   the car's pass bins: 6.8 a tick on average on `doors`), each lane keeping its least squared
+//!   distance: no clusters, windows, bands or near sets. The least over every point is the
+//!   car's least over the cluster's near set whenever it is below the clip's square (that point
+//!   is in the near set), and both read the clip's square otherwise, so every collision test
+//!   and clearance comes from the same number; what the car's pass skips (a cluster beyond the
+//!   clip, one within the collision radius of its centre's nearest point, the members whose
+//!   trajectories all collide already) is what these give too, or is never read;
+//! * the semantic pass takes, lane by lane, the least of the clip and each object's clearance
+//!   by one formula without a branch, skipping the chunks whose bounding box is out of the
+//!   object's reach (no per-cluster loops, cases or dominance test);
+//! * the rows start from the path and side features of every action computed side by side.
+//!
+//! Each value comes from the same operations as on the car, so the masks and rows are the same
+//! bits (tested on random observations against the car's paths, run on the host).
 //!
 //! ```
 //! use firmware_core::evaluator::Evaluator;
@@ -411,9 +420,6 @@ impl Evaluator {
         let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
         let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
         let (mut collided, mut touched) = (0u64, 0u64);
-        // On a wide target, the samples whose clearances hold squared distances (the members
-        // of the clusters measured): the range of them, converted at the end.
-        let mut squared = [UNIQUE_SAMPLES, 0];
         fill(clearance, OBSTACLE_CLIP);
         for cluster in CLUSTERS.iter().rev() {
             if cluster.trajectories & !collided == 0 {
@@ -439,15 +445,7 @@ impl Evaluator {
                     let dx = px - cx;
                     let dy = py - cy;
                     let d2 = dx * dx + dy * dy;
-                    if W {
-                        // Without a branch: every candidate is written at the end, and kept by
-                        // counting it. `m2` is at most `reach2`, so a `d2` below it is within
-                        // reach: the same least as the branches give.
-                        near[n & (SCAN_BEAMS - 1)] = [px, py];
-                        near_d2[n & (SCAN_BEAMS - 1)] = d2;
-                        n += usize::from(d2 < reach2);
-                        m2 = clipped(d2, m2);
-                    } else if d2 < reach2 {
+                    if d2 < reach2 {
                         near[n & (SCAN_BEAMS - 1)] = [px, py];
                         near_d2[n & (SCAN_BEAMS - 1)] = d2;
                         n += 1;
@@ -467,11 +465,7 @@ impl Evaluator {
             // every member is within `m + s` of that point, and a point farther than `m + 2s`
             // from the centre is farther than `m + s` from every member: only the points within
             // `m + 2s` of the centre can be a member's nearest (the near set).
-            // On a wide target the processor's correctly rounded root (one instruction, where
-            // `sqrt` is two dependent divisions): `m` only decides pruning, each decision with a
-            // relative 1e-5 and a millimetre to spare, far above the two roots' difference (at
-            // most SQRT_RELATIVE_ERROR), so either root gives the same mask and clearances.
-            let m = if W { libm::sqrtf(m2) } else { sqrt(m2) };
+            let m = sqrt(m2);
             if (m + spread) * (1.0 + 1.0e-5) + REACH_MARGIN < COLLISION_RADIUS {
                 // Every member is within the collision radius of the centre's nearest point.
                 collided |= cluster.trajectories;
@@ -488,10 +482,7 @@ impl Evaluator {
             let n = n.min(SCAN_BEAMS);
             let mut k = 0usize;
             for i in 0..n {
-                if W {
-                    near[k & (SCAN_BEAMS - 1)] = near[i];
-                    k += usize::from(near_d2[i] < limit2);
-                } else if near_d2[i] < limit2 {
+                if near_d2[i] < limit2 {
                     near[k & (SCAN_BEAMS - 1)] = near[i];
                     k += 1;
                 }
@@ -506,25 +497,6 @@ impl Evaluator {
             ) else {
                 continue;
             };
-            if W {
-                // Every member, without a branch: its least squared distance (the clip's square
-                // when nothing is nearer), converted after the pass. A member whose trajectories
-                // all collide already adds nothing to `collided`, and its clearance and its bits
-                // in `touched` are never read (only the trajectories that do not collide are).
-                for ((&[sx, sy], &of), c) in samples.iter().zip(trajectories).zip(clearance) {
-                    let mut best = clip2;
-                    for &[px, py] in set {
-                        let dx = px - sx;
-                        let dy = py - sy;
-                        best = clipped(dx * dx + dy * dy, best);
-                    }
-                    *c = best;
-                    collided |= if best < collide2 { of } else { 0 };
-                    touched |= if best < clip2 { of } else { 0 };
-                }
-                squared = [squared[0].min(start), squared[1].max(end)];
-                continue;
-            }
             for ((&[sx, sy], &of), c) in samples.iter().zip(trajectories).zip(clearance) {
                 if of & !collided == 0 {
                     continue;
@@ -545,21 +517,6 @@ impl Evaluator {
                     // At least the collision radius squared: the root's test is not needed.
                     *c = clipped(newton_sqrt(best), OBSTACLE_CLIP);
                     touched |= of;
-                }
-            }
-        }
-        if W {
-            // The squared distances the members hold into their clearances: below the clip's
-            // square, the root clipped, as the branches above give it; the clip's square (no
-            // scan point nearer) or the clip (not measured) into the clip. A member that collides
-            // takes a root of its distance too: never read. Four at a time (the scratch holds
-            // `SCRATCH` slots, the pass ends at `UNIQUE_SAMPLES` rounded up to four).
-            let [lo, hi] = [squared[0] & !3, squared[1].next_multiple_of(4)];
-            if let Some(measured) = clearance.get_mut(lo..hi) {
-                for c in measured {
-                    let best = *c;
-                    let root = clipped(newton_sqrt(best), OBSTACLE_CLIP);
-                    *c = if best < clip2 { root } else { OBSTACLE_CLIP };
                 }
             }
         }
