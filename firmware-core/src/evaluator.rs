@@ -99,14 +99,17 @@
 //! work, on the samples sixteen at a time (`LANES`, one array per coordinate; the lanes past the
 //! last sample lie far from everything):
 //!
-//! * the obstacle pass measures every sample against every scan point within reach (the beams
-//!   the car's pass bins: 6.8 a tick on average on `doors`), each lane keeping its least squared
-//!   distance: no clusters, windows, bands or near sets. The least over every point is the
-//!   car's least over the cluster's near set whenever it is below the clip's square (that point
-//!   is in the near set), and both read the clip's square otherwise, so every collision test
-//!   and clearance comes from the same number; what the car's pass skips (a cluster beyond the
-//!   clip, one within the collision radius of its centre's nearest point, the members whose
-//!   trajectories all collide already) is what these give too, or is never read;
+//! * the obstacle pass measures each chunk of samples against every scan point within reach
+//!   (the beams the car's pass bins: 6.8 a tick on average on `doors`) that a table made by
+//!   `build.rs` does not leave out (`BEAM_CHUNKS`: per beam and range bin, the chunks some
+//!   sample of which a point of that beam and bin may come within the clip of), each lane
+//!   keeping its least squared distance: no clusters, windows, bands or near sets. The least
+//!   over those points is the car's least over the cluster's near set whenever it is below the
+//!   clip's square (that point is in both sets), and both read the clip's square otherwise, so
+//!   every collision test and clearance comes from the same number; what the car's pass skips
+//!   (a cluster beyond the clip, one within the collision radius of its centre's nearest point,
+//!   the members whose trajectories all collide already) is what these give too, or is never
+//!   read;
 //! * the semantic pass takes, lane by lane, the least of the clip and each object's clearance
 //!   by one formula without a branch, skipping the chunks whose bounding box is out of the
 //!   object's reach (no per-cluster loops, cases or dominance test);
@@ -141,6 +144,9 @@ use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
 };
 use crate::policy::WIDE;
+
+#[cfg(not(target_arch = "arm"))]
+use crate::lattice::{BEAM_CHUNKS, LANES};
 
 pub use crate::lattice::COLLISION_RADIUS;
 
@@ -527,14 +533,15 @@ impl Evaluator {
     }
 
     /// [`Evaluator::obstacles`] on a wide target: every sample measured against every scan point
-    /// within reach, [`LANES`] samples side by side, without the clusters' pruning (see "On the
-    /// host" in the module documentation). The same mask, the same clearance for every sample
+    /// within reach that `BEAM_CHUNKS` does not leave out for its chunk, [`LANES`] samples side
+    /// by side, without the clusters' pruning (see "On the host" in the module documentation). The same mask, the same clearance for every sample
     /// of a trajectory that does not collide, and `touched` the same on those trajectories.
     ///
-    /// The least squared distance of a sample over every point within reach is the least over
-    /// its cluster's near set whenever it is below the clip's square (that point is in the near
-    /// set, and the least of the same values is the same whatever the order: none is NaN or
-    /// −0), and at least the clip's square otherwise, where both read the clip's square. So
+    /// The least squared distance of a sample over the points within reach its chunk keeps is
+    /// the least over its cluster's near set whenever it is below the clip's square (that point
+    /// is in both: `BEAM_CHUNKS` leaves out only points a millimetre beyond the clip of every
+    /// lane, tested; and the least of the same values is the same whatever the order: none is
+    /// NaN or −0), and at least the clip's square otherwise, where both read the clip's square. So
     /// every sample's collision test and clearance come from the same number as on the car;
     /// what the car's pass skips (a cluster beyond the clip, one within the collision radius
     /// of its centre's nearest point, the members whose trajectories all collide already) is
@@ -553,25 +560,44 @@ impl Evaluator {
         if within == 0 {
             return Obstacles::Clear;
         }
-        let mut n = 0usize;
+        // The beams whose scan point may come within the clip of some lane of each chunk
+        // (`BEAM_CHUNKS`, by the beam's range bin, the one the car's pass puts it in), and the
+        // scan points, as the car's pass computes them.
+        let mut beams = [0u64; LANE_CHUNKS];
         while within != 0 {
             let j = within.trailing_zeros() as usize & (SCAN_BEAMS - 1);
             within &= within - 1;
             let r = ranges[j];
-            self.points[n & (SCAN_BEAMS - 1)] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
-            n += 1;
+            self.points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
+            let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
+            let mut chunks = BEAM_CHUNKS[j].get(b).copied().unwrap_or(u32::MAX);
+            while chunks != 0 {
+                let k = chunks.trailing_zeros() as usize;
+                chunks &= chunks - 1;
+                if let Some(of) = beams.get_mut(k) {
+                    *of |= 1 << j;
+                }
+            }
         }
-        let points = &self.points[..n.min(SCAN_BEAMS)];
+        let points = &self.points;
         let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
         let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
         let (mut collided, mut touched) = (0u64, 0u64);
-        for (k, c) in self.clearance[..LANE_CHUNKS * LANES]
+        for (k, (c, &near)) in self.clearance[..LANE_CHUNKS * LANES]
             .chunks_exact_mut(LANES)
+            .zip(&beams)
             .enumerate()
         {
+            if near == 0 {
+                c.fill(OBSTACLE_CLIP);
+                continue;
+            }
             let [sx, sy] = &SAMPLE_LANES[k];
             let mut best = [clip2; LANES];
-            for &[px, py] in points {
+            let mut bits = near;
+            while bits != 0 {
+                let [px, py] = points[bits.trailing_zeros() as usize & (SCAN_BEAMS - 1)];
+                bits &= bits - 1;
                 for l in 0..LANES {
                     let dx = px - sx[l];
                     let dy = py - sy[l];
@@ -1089,16 +1115,12 @@ fn members(cluster: &Cluster) -> impl Iterator<Item = usize> {
     (usize::from(cluster.samples[0])..usize::from(cluster.samples[1])).map(|u| u & (SCRATCH - 1))
 }
 
-/// Samples side by side in a wide target's obstacle pass.
-#[cfg(not(target_arch = "arm"))]
-const LANES: usize = 16;
-
 /// Chunks of [`LANES`] samples that cover every sample.
 #[cfg(not(target_arch = "arm"))]
 const LANE_CHUNKS: usize = UNIQUE_SAMPLES.div_ceil(LANES);
 
 #[cfg(not(target_arch = "arm"))]
-const _: () = assert!(LANE_CHUNKS * LANES <= PAD_SAMPLE);
+const _: () = assert!(LANE_CHUNKS * LANES <= PAD_SAMPLE && LANE_CHUNKS <= 32);
 
 /// Where no sample is: a lane past the last sample, farther than any scan point's reach.
 #[cfg(not(target_arch = "arm"))]
@@ -1390,6 +1412,47 @@ mod tests {
                 bits(&tables[2]),
                 "observation {i}: {obs:?}"
             );
+        }
+    }
+
+    /// A chunk that `BEAM_CHUNKS` leaves out for a beam's range bin has no lane within the clip
+    /// of that beam's scan point at any range of the bin (every 0.5 mm up to the beam's reach,
+    /// and each bin's edges to the ulp), as the wide obstacle pass computes the points and the
+    /// squared distances.
+    #[test]
+    fn a_chunk_left_out_of_a_bin_is_beyond_the_clip() {
+        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
+        for j in 0..SCAN_BEAMS {
+            let mut ranges = std::vec::Vec::new();
+            let mut r = 0.0f32;
+            while r < BEAM_REACH[j] {
+                ranges.push(r);
+                r += 5.0e-4;
+            }
+            for b in 0..=RANGE_BINS {
+                let edge = b as f32 * RANGE_BIN_WIDTH;
+                ranges.extend([edge.next_down(), edge, edge.next_up()]);
+            }
+            for r in ranges {
+                let binned = r * (1.0 / RANGE_BIN_WIDTH) < RANGE_BINS as f32;
+                if !(r >= 0.0 && r < BEAM_REACH[j] && binned) {
+                    continue;
+                }
+                let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
+                let (px, py) = (r * BEAM_COS[j], r * BEAM_SIN[j]);
+                for (k, [sx, sy]) in SAMPLE_LANES.iter().enumerate() {
+                    if BEAM_CHUNKS[j][b] >> k & 1 == 1 {
+                        continue;
+                    }
+                    for l in 0..LANES {
+                        let (dx, dy) = (px - sx[l], py - sy[l]);
+                        assert!(
+                            dx * dx + dy * dy >= clip2,
+                            "beam {j} at {r} (bin {b}), chunk {k} lane {l}"
+                        );
+                    }
+                }
+            }
         }
     }
 
