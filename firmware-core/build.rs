@@ -578,6 +578,71 @@ fn main() {
         )
     )
     .unwrap();
+    // On a host (not the car: these are compiled for every target but `arm`), the evaluator
+    // measures the samples `LANES` at a time, in chunks of consecutive samples. For each beam and
+    // range bin, the chunks one of whose samples a scan point of that beam in that bin may come
+    // within the obstacle clip of: on the segment of the beam's ray (its f32 cosine and sine)
+    // over the bin (widened by 0.1 mm each side, more than the rounding of the range times the
+    // bins' scale, and cut at the beam's reach), a chunk none of whose samples is nearer than the
+    // clip and a millimetre (far above the f32 rounding of a point's coordinates and of a
+    // squared distance) is left out.
+    const LANES: usize = 16;
+    let chunks = points.len().div_ceil(LANES);
+    assert!(chunks <= 32, "a chunk mask is a u32");
+    let beam_chunks: Vec<Vec<u32>> = (0..SCAN_BEAMS)
+        .map(|j| {
+            let (c, s) = direction(j);
+            let (c, s) = (c as f32 as f64, s as f32 as f64);
+            (0..range_bins)
+                .map(|b| {
+                    let r0 = (b as f64 * bin_width - 1e-4).max(0.0);
+                    let r1 = ((b + 1) as f64 * bin_width + 1e-4).min(beam_reach[j]);
+                    let mut mask = 0u32;
+                    if r0 > r1 {
+                        return mask;
+                    }
+                    for (k, chunk) in points.chunks(LANES).enumerate() {
+                        let near = chunk.iter().any(|&(x, y)| {
+                            let (x, y) = (x as f64, y as f64);
+                            let t = (c * x + s * y).clamp(r0, r1);
+                            let (dx, dy) = (x - t * c, y - t * s);
+                            (dx * dx + dy * dy).sqrt() < OBSTACLE_CLIP as f64 + margin
+                        });
+                        if near {
+                            mask |= 1 << k;
+                        }
+                    }
+                    mask
+                })
+                .collect()
+        })
+        .collect();
+    writeln!(
+        out,
+        "/// Samples side by side in a wide target's passes (not the car's)."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "#[cfg(not(target_arch = \"arm\"))]\npub(crate) const LANES: usize = {LANES};"
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// Per beam and range bin: the chunks of `LANES` samples that its scan point may come within the obstacle clip of (a wide target's)."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "#[cfg(not(target_arch = \"arm\"))]\npub(crate) static BEAM_CHUNKS: [[u32; RANGE_BINS]; {SCAN_BEAMS}] = [{}];",
+        list(
+            beam_chunks
+                .iter()
+                .map(|m| format!("[{}]", list(m.iter().map(|x| format!("{x:#x}")).collect())))
+                .collect()
+        )
+    )
+    .unwrap();
     let reach = |c: [f64; 2], d: f64| {
         let r = rho_of(c);
         let alpha = libm::atan2(c[1], c[0]);

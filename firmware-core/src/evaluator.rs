@@ -95,16 +95,28 @@
 //!
 //! The pruning above is tuned for the car's instruction counts (cheap branches, one `f32` at a
 //! time). A host that computes several `f32`s side by side (`policy::WIDE`: every target but
-//! `arm`) takes other paths through the same passes, without the branches that only skip work:
-//! a cluster's candidates and near set are compacted by counting instead of branching; every
-//! member of a measured cluster keeps its least squared distance, and all of them become clipped
-//! roots in one vectorised pass at the end; the centre's distance, which only decides pruning,
-//! is the processor's exact root; and the semantic pass computes each object's clearance with
-//! one branch-free formula over one range of samples, from the first to the last of the
-//! clusters within its reach, every sample starting at the clip (no per-cluster loops, cases
-//! or dominance test: a sample of a cluster out of an object's reach reads the clip for it
-//! either way). Each value comes from the same operations as on the car, so the masks and rows are
-//! the same bits (tested on random observations against the car's paths, run on the host).
+//! `arm`) takes other exact algorithms, without the branches and the bookkeeping that only skip
+//! work, on the samples sixteen at a time (`LANES`, one array per coordinate; the lanes past the
+//! last sample lie far from everything):
+//!
+//! * the obstacle pass measures each chunk of samples against every scan point within reach
+//!   (the beams the car's pass bins: 6.8 a tick on average on `doors`) that a table made by
+//!   `build.rs` does not leave out (`BEAM_CHUNKS`: per beam and range bin, the chunks some
+//!   sample of which a point of that beam and bin may come within the clip of), each lane
+//!   keeping its least squared distance: no clusters, windows, bands or near sets. The least
+//!   over those points is the car's least over the cluster's near set whenever it is below the
+//!   clip's square (that point is in both sets), and both read the clip's square otherwise, so
+//!   every collision test and clearance comes from the same number; what the car's pass skips
+//!   (a cluster beyond the clip, one within the collision radius of its centre's nearest point,
+//!   the members whose trajectories all collide already) is what these give too, or is never
+//!   read;
+//! * the semantic pass takes, lane by lane, the least of the clip and each object's clearance
+//!   by one formula without a branch, skipping the chunks whose bounding box is out of the
+//!   object's reach (no per-cluster loops, cases or dominance test);
+//! * the rows start from the path and side features of every action computed side by side.
+//!
+//! Each value comes from the same operations as on the car, so the masks and rows are the same
+//! bits (tested on random observations against the car's paths, run on the host).
 //!
 //! ```
 //! use firmware_core::evaluator::Evaluator;
@@ -132,6 +144,9 @@ use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
 };
 use crate::policy::WIDE;
+
+#[cfg(not(target_arch = "arm"))]
+use crate::lattice::{BEAM_CHUNKS, LANES};
 
 pub use crate::lattice::COLLISION_RADIUS;
 
@@ -316,7 +331,12 @@ impl Evaluator {
             Obstacles::Clear => u64::MAX,
             Obstacles::Measured { allowed, .. } => allowed,
         };
-        start_rows(allowed, frame, rows);
+        if W {
+            #[cfg(not(target_arch = "arm"))]
+            start_rows_wide(allowed, frame, rows);
+        } else {
+            start_rows(allowed, frame, rows);
+        }
         if let Obstacles::Measured { allowed, touched } = obstacles {
             let f = Feature::Obstacles.index();
             self.sum_rows(allowed, touched, f, OBSTACLE_CLIP, rows);
@@ -356,6 +376,10 @@ impl Evaluator {
     /// sample of the others (into `clearance`). Returns the trajectories that do not collide, and
     /// those with a sample nearer than the clip to a scan point, one bit per action.
     fn obstacles<const W: bool>(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
+        #[cfg(not(target_arch = "arm"))]
+        if W {
+            return self.obstacles_wide(ranges);
+        }
         let Self {
             points,
             shorter,
@@ -402,9 +426,6 @@ impl Evaluator {
         let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
         let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
         let (mut collided, mut touched) = (0u64, 0u64);
-        // On a wide target, the samples whose clearances hold squared distances (the members
-        // of the clusters measured): the range of them, converted at the end.
-        let mut squared = [UNIQUE_SAMPLES, 0];
         fill(clearance, OBSTACLE_CLIP);
         for cluster in CLUSTERS.iter().rev() {
             if cluster.trajectories & !collided == 0 {
@@ -430,15 +451,7 @@ impl Evaluator {
                     let dx = px - cx;
                     let dy = py - cy;
                     let d2 = dx * dx + dy * dy;
-                    if W {
-                        // Without a branch: every candidate is written at the end, and kept by
-                        // counting it. `m2` is at most `reach2`, so a `d2` below it is within
-                        // reach: the same least as the branches give.
-                        near[n & (SCAN_BEAMS - 1)] = [px, py];
-                        near_d2[n & (SCAN_BEAMS - 1)] = d2;
-                        n += usize::from(d2 < reach2);
-                        m2 = clipped(d2, m2);
-                    } else if d2 < reach2 {
+                    if d2 < reach2 {
                         near[n & (SCAN_BEAMS - 1)] = [px, py];
                         near_d2[n & (SCAN_BEAMS - 1)] = d2;
                         n += 1;
@@ -458,11 +471,7 @@ impl Evaluator {
             // every member is within `m + s` of that point, and a point farther than `m + 2s`
             // from the centre is farther than `m + s` from every member: only the points within
             // `m + 2s` of the centre can be a member's nearest (the near set).
-            // On a wide target the processor's correctly rounded root (one instruction, where
-            // `sqrt` is two dependent divisions): `m` only decides pruning, each decision with a
-            // relative 1e-5 and a millimetre to spare, far above the two roots' difference (at
-            // most SQRT_RELATIVE_ERROR), so either root gives the same mask and clearances.
-            let m = if W { libm::sqrtf(m2) } else { sqrt(m2) };
+            let m = sqrt(m2);
             if (m + spread) * (1.0 + 1.0e-5) + REACH_MARGIN < COLLISION_RADIUS {
                 // Every member is within the collision radius of the centre's nearest point.
                 collided |= cluster.trajectories;
@@ -479,10 +488,7 @@ impl Evaluator {
             let n = n.min(SCAN_BEAMS);
             let mut k = 0usize;
             for i in 0..n {
-                if W {
-                    near[k & (SCAN_BEAMS - 1)] = near[i];
-                    k += usize::from(near_d2[i] < limit2);
-                } else if near_d2[i] < limit2 {
+                if near_d2[i] < limit2 {
                     near[k & (SCAN_BEAMS - 1)] = near[i];
                     k += 1;
                 }
@@ -497,25 +503,6 @@ impl Evaluator {
             ) else {
                 continue;
             };
-            if W {
-                // Every member, without a branch: its least squared distance (the clip's square
-                // when nothing is nearer), converted after the pass. A member whose trajectories
-                // all collide already adds nothing to `collided`, and its clearance and its bits
-                // in `touched` are never read (only the trajectories that do not collide are).
-                for ((&[sx, sy], &of), c) in samples.iter().zip(trajectories).zip(clearance) {
-                    let mut best = clip2;
-                    for &[px, py] in set {
-                        let dx = px - sx;
-                        let dy = py - sy;
-                        best = clipped(dx * dx + dy * dy, best);
-                    }
-                    *c = best;
-                    collided |= if best < collide2 { of } else { 0 };
-                    touched |= if best < clip2 { of } else { 0 };
-                }
-                squared = [squared[0].min(start), squared[1].max(end)];
-                continue;
-            }
             for ((&[sx, sy], &of), c) in samples.iter().zip(trajectories).zip(clearance) {
                 if of & !collided == 0 {
                     continue;
@@ -539,19 +526,104 @@ impl Evaluator {
                 }
             }
         }
-        if W {
-            // The squared distances the members hold into their clearances: below the clip's
-            // square, the root clipped, as the branches above give it; the clip's square (no
-            // scan point nearer) or the clip (not measured) into the clip. A member that collides
-            // takes a root of its distance too: never read. Four at a time (the scratch holds
-            // `SCRATCH` slots, the pass ends at `UNIQUE_SAMPLES` rounded up to four).
-            let [lo, hi] = [squared[0] & !3, squared[1].next_multiple_of(4)];
-            if let Some(measured) = clearance.get_mut(lo..hi) {
-                for c in measured {
-                    let best = *c;
-                    let root = clipped(newton_sqrt(best), OBSTACLE_CLIP);
-                    *c = if best < clip2 { root } else { OBSTACLE_CLIP };
+        Obstacles::Measured {
+            allowed: !collided,
+            touched,
+        }
+    }
+
+    /// [`Evaluator::obstacles`] on a wide target: every sample measured against every scan point
+    /// within reach that `BEAM_CHUNKS` does not leave out for its chunk, [`LANES`] samples side
+    /// by side, without the clusters' pruning (see "On the host" in the module documentation). The same mask, the same clearance for every sample
+    /// of a trajectory that does not collide, and `touched` the same on those trajectories.
+    ///
+    /// The least squared distance of a sample over the points within reach its chunk keeps is
+    /// the least over its cluster's near set whenever it is below the clip's square (that point
+    /// is in both: `BEAM_CHUNKS` leaves out only points a millimetre beyond the clip of every
+    /// lane, tested; and the least of the same values is the same whatever the order: none is
+    /// NaN or −0), and at least the clip's square otherwise, where both read the clip's square. So
+    /// every sample's collision test and clearance come from the same number as on the car;
+    /// what the car's pass skips (a cluster beyond the clip, one within the collision radius
+    /// of its centre's nearest point, the members whose trajectories all collide already) is
+    /// what these give them too, or is never read.
+    #[cfg(not(target_arch = "arm"))]
+    fn obstacles_wide(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
+        // The beams within reach, one bit each (those the car's pass bins: the bin it gives a
+        // beam, a truncation, is below RANGE_BINS exactly when the product is, the range being
+        // finite and not negative), then their scan points side by side, as the car's pass
+        // computes them.
+        let mut within = 0u64;
+        for (j, (&r, &reach)) in ranges.iter().zip(BEAM_REACH.iter()).enumerate() {
+            let binned = r * (1.0 / RANGE_BIN_WIDTH) < RANGE_BINS as f32;
+            within |= u64::from(r < reach && binned) << j;
+        }
+        if within == 0 {
+            return Obstacles::Clear;
+        }
+        // The beams whose scan point may come within the clip of some lane of each chunk
+        // (`BEAM_CHUNKS`, by the beam's range bin, the one the car's pass puts it in), and the
+        // scan points, as the car's pass computes them.
+        let mut beams = [0u64; LANE_CHUNKS];
+        while within != 0 {
+            let j = within.trailing_zeros() as usize & (SCAN_BEAMS - 1);
+            within &= within - 1;
+            let r = ranges[j];
+            self.points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
+            let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
+            let mut chunks = BEAM_CHUNKS[j].get(b).copied().unwrap_or(u32::MAX);
+            while chunks != 0 {
+                let k = chunks.trailing_zeros() as usize;
+                chunks &= chunks - 1;
+                if let Some(of) = beams.get_mut(k) {
+                    *of |= 1 << j;
                 }
+            }
+        }
+        let points = &self.points;
+        let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
+        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
+        let (mut collided, mut touched) = (0u64, 0u64);
+        for (k, (c, &near)) in self.clearance[..LANE_CHUNKS * LANES]
+            .chunks_exact_mut(LANES)
+            .zip(&beams)
+            .enumerate()
+        {
+            if near == 0 {
+                c.fill(OBSTACLE_CLIP);
+                continue;
+            }
+            let [sx, sy] = &SAMPLE_LANES[k];
+            let mut best = [clip2; LANES];
+            let mut bits = near;
+            while bits != 0 {
+                let [px, py] = points[bits.trailing_zeros() as usize & (SCAN_BEAMS - 1)];
+                bits &= bits - 1;
+                for l in 0..LANES {
+                    let dx = px - sx[l];
+                    let dy = py - sy[l];
+                    best[l] = clipped(dx * dx + dy * dy, best[l]);
+                }
+            }
+            // The trajectories of the lanes within the clip: none when no lane is (every
+            // sample belongs to some trajectory).
+            let of = &LANE_TRAJECTORIES[k];
+            let mut within = 0u64;
+            for (&b, &of) in best.iter().zip(of) {
+                within |= if b < clip2 { of } else { 0 };
+            }
+            if within == 0 {
+                c.fill(OBSTACLE_CLIP);
+                continue;
+            }
+            touched |= within;
+            if best.iter().fold(false, |any, &b| any | (b < collide2)) {
+                for (&b, &of) in best.iter().zip(of) {
+                    collided |= if b < collide2 { of } else { 0 };
+                }
+            }
+            for (c, &b) in c.iter_mut().zip(&best) {
+                let root = clipped(newton_sqrt(b), OBSTACLE_CLIP);
+                *c = if b < clip2 { root } else { OBSTACLE_CLIP };
             }
         }
         Obstacles::Measured {
@@ -639,8 +711,9 @@ impl Evaluator {
         // A disc wider than the margin holds every point whose squared distance to its centre
         // is below `f32::MIN_POSITIVE` (where `sqrt` is not `newton_sqrt`) by far: such a member
         // reads 0 either way, so the host's loop may take `newton_sqrt` for every member.
+        #[cfg(not(target_arch = "arm"))]
         if W && objects.iter().all(|o| o.radius >= REACH_MARGIN) {
-            self.semantic_wide(objects, allowed, f, rows);
+            self.semantic_lanes(objects, allowed, f, rows);
             return;
         }
         let mut touched = 0u64;
@@ -714,55 +787,65 @@ impl Evaluator {
     }
 
     /// [`Evaluator::semantic`] on a wide target, every disc wider than the margin: the same
-    /// values by whole ranges of samples instead of cluster by cluster. Every sample starts at
-    /// the clip; then each object takes the least of that and its clearance (the one formula of
-    /// `disc_clearances`, vectorised) over one range, from the first sample to the last of the
-    /// clusters within its reach that some allowed trajectory uses. A sample of a cluster not
-    /// within an object's reach (its centre at least the reach plus the spread away, the spread
-    /// rounded up) is at least the reach (the clip, the radius and the 1 mm margin) from the
-    /// object, far above the rounding of these distances: its clearance to that object is the
-    /// clip, which the least leaves as it is, so the ranges may cover such clusters. A sample no
-    /// allowed trajectory has is written and never read; the others read the least over the
-    /// objects within reach of their cluster, or the clip when none is, as the car's paths give
-    /// them (the least does not depend on the order it is taken in: no value is NaN or −0).
-    fn semantic_wide(
+    /// values, [`LANES`] samples side by side. Each lane starts at the clip and takes the least
+    /// of that and its clearance to each object whose reach comes within the lanes' bounding
+    /// box, by one formula without a branch (the general member loop's: the clip beyond the
+    /// reach, else the root less the radius, at least 0 and at most the clip; `newton_sqrt` for
+    /// every lane, the same bits as `sqrt` for a disc wider than the margin, since a sample
+    /// within `f32::MIN_POSITIVE`'s root of the centre reads 0 either way). A sample no allowed trajectory has is
+    /// written and never read; every other reads the least over the objects of the class
+    /// within reach of its cluster, as the car's paths give it: an object out of a sample's
+    /// reach (its squared distance at least the reach's square, as the formula computes it)
+    /// gives the clip, which the least leaves as it is; a box whose nearest point's squared
+    /// distance to the object is at least the reach's square has every lane out of reach (the
+    /// differences, squares and sums are rounded monotonically, and no lane's difference is
+    /// smaller than the box's); and the least does not depend on the order it is taken in (no
+    /// value is NaN or −0). `touched` holds the trajectories of every chunk with a lane below the
+    /// clip (a trajectory whose samples all read the clip sums them to ten clips, exactly).
+    #[cfg(not(target_arch = "arm"))]
+    fn semantic_lanes(
         &mut self,
         objects: &[Disc],
         allowed: u64,
         f: usize,
         rows: &mut [Features; MAX_ACTIONS],
     ) {
-        // Per object, the range of samples of the clusters within its reach.
-        let mut spans = [[UNIQUE_SAMPLES, 0usize]; MAX_OBJECTS];
         let mut touched = 0u64;
-        for cluster in &CLUSTERS {
-            if cluster.trajectories & allowed == 0 {
-                continue;
-            }
-            let [cx, cy] = cluster.centre;
-            let start = usize::from(cluster.samples[0]);
-            let end = usize::from(cluster.samples[1]);
-            for (o, span) in objects.iter().zip(spans.iter_mut()) {
-                let (dx, dy) = (cx - o.x, cy - o.y);
-                let limit = o.reach + cluster.spread;
-                if dx * dx + dy * dy < limit * limit {
-                    touched |= cluster.trajectories;
-                    *span = [span[0].min(start), span[1].max(end)];
+        for (k, c) in self.clearance[..LANE_CHUNKS * LANES]
+            .chunks_exact_mut(LANES)
+            .enumerate()
+        {
+            let [sx, sy] = &SAMPLE_LANES[k];
+            let [[x0, x1], [y0, y1]] = LANE_BOXES[k];
+            let mut least = [SEMANTIC_CLIP; LANES];
+            for o in objects {
+                // The box's nearest point's distance from the object, by coordinate.
+                let dx = at_least(at_least(x0 - o.x, o.x - x1), 0.0);
+                let dy = at_least(at_least(y0 - o.y, o.y - y1), 0.0);
+                if dx * dx + dy * dy >= o.reach2 {
+                    continue;
+                }
+                let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
+                for l in 0..LANES {
+                    let (dx, dy) = (sx[l] - ox, sy[l] - oy);
+                    let d2 = dx * dx + dy * dy;
+                    let d = newton_sqrt(d2) - radius;
+                    let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
+                    let d = if d2 < reach2 { d } else { SEMANTIC_CLIP };
+                    least[l] = clipped(d, least[l]);
                 }
             }
+            if least
+                .iter()
+                .fold(false, |any, &d| any | (d < SEMANTIC_CLIP))
+            {
+                touched |= LANE_UNION[k];
+            }
+            c.copy_from_slice(&least);
         }
         if touched == 0 {
-            // No sample within reach of an object: the rows hold ten clips already.
+            // No sample within the clip of an object: the rows hold ten clips already.
             return;
-        }
-        fill(&mut self.clearance, SEMANTIC_CLIP);
-        for (o, &[start, end]) in objects.iter().zip(spans.iter()) {
-            if let (Some(points), Some(clearance)) = (
-                SAMPLE_POINTS.get(start..end),
-                self.clearance.get_mut(start..end),
-            ) {
-                disc_clearances(clearance, points, o);
-            }
         }
         self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
     }
@@ -834,24 +917,6 @@ impl Evaluator {
     }
 }
 
-/// On a wide target, the clearance of every sample (`points`) to the disc `o`, or the one in
-/// `clearance` when that is less. The one formula of [`Evaluator::semantic`]'s member loop,
-/// without a branch: the clip beyond the reach, else the root less the radius, at least 0 and at
-/// most the clip; `newton_sqrt` for every sample, the same bits as `sqrt` for a disc wider than
-/// the margin (a sample within `f32::MIN_POSITIVE`'s root of the centre reads 0 either way).
-#[inline(always)]
-fn disc_clearances(clearance: &mut [f32], points: &[[f32; 2]], o: &Disc) {
-    let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
-    for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
-        let (dx, dy) = (sx - ox, sy - oy);
-        let d2 = dx * dx + dy * dy;
-        let d = newton_sqrt(d2) - radius;
-        let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
-        let d = if d2 < reach2 { d } else { SEMANTIC_CLIP };
-        *c = clipped(d, *c);
-    }
-}
-
 /// The rows before the sums: zeros for the trajectories that collide; for the others ten clips
 /// in every clearance feature, in one pass with the path and side features (the sums then
 /// overwrite the clearances of the trajectories with a sample nearer than a clip). Not inlined:
@@ -879,6 +944,60 @@ fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS
         [row[Feature::Path.index()], row[Feature::Right.index()]] = frame.path_and_side(a);
     });
 }
+
+/// [`start_rows`] on a wide target: the path and side features of every action computed side by
+/// side, then every row written whole, without the loops over bits. The end in the reference's
+/// frame is nalgebra's `inverse_transform_point` written out, the same operations in the same
+/// order (the translation taken off, then the conjugate rotation: `re·x − im·y`,
+/// `im·x + re·y` with `im` the sine negated).
+#[cfg(not(target_arch = "arm"))]
+fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS]) {
+    const CLIPS: f32 = SAMPLES as f32;
+    let iso = &frame.reference;
+    let (re, im) = (iso.rotation.re, -iso.rotation.im);
+    let (tx, ty) = (iso.translation.vector.x, iso.translation.vector.y);
+    let mut path = [0.0f32; MAX_ACTIONS];
+    let mut side = [0.0f32; MAX_ACTIONS];
+    for a in 0..MAX_ACTIONS {
+        let (x, y) = (END_X[a], END_Y[a]);
+        let (vx, vy) = (x - tx, y - ty);
+        let (lx, ly) = (re * vx - im * vy, im * vx + re * vy);
+        let error = libm::fabsf(lx) + libm::fabsf(ly);
+        path[a] = if error < PATH_CLIP { error } else { PATH_CLIP };
+        side[a] = -RIGHT_SCALE * y;
+    }
+    for (a, row) in rows.iter_mut().enumerate() {
+        *row = if allowed >> a & 1 != 0 {
+            [CLIPS, CLIPS, CLIPS, CLIPS, path[a], side[a]]
+        } else {
+            [0.0; FEATURE_COUNT]
+        };
+    }
+}
+
+/// The trajectories' ends, one array per coordinate.
+#[cfg(not(target_arch = "arm"))]
+static END_X: [f32; MAX_ACTIONS] = {
+    let mut out = [0.0; MAX_ACTIONS];
+    let mut a = 0;
+    while a < MAX_ACTIONS {
+        out[a] = END_POINTS[a][0];
+        a += 1;
+    }
+    out
+};
+
+/// See [`END_X`].
+#[cfg(not(target_arch = "arm"))]
+static END_Y: [f32; MAX_ACTIONS] = {
+    let mut out = [0.0; MAX_ACTIONS];
+    let mut a = 0;
+    while a < MAX_ACTIONS {
+        out[a] = END_POINTS[a][1];
+        a += 1;
+    }
+    out
+};
 
 /// Sets the clearance of every sample to `value` (the unused slots above stay 0).
 #[inline]
@@ -995,6 +1114,87 @@ enum Obstacles {
 fn members(cluster: &Cluster) -> impl Iterator<Item = usize> {
     (usize::from(cluster.samples[0])..usize::from(cluster.samples[1])).map(|u| u & (SCRATCH - 1))
 }
+
+/// Chunks of [`LANES`] samples that cover every sample.
+#[cfg(not(target_arch = "arm"))]
+const LANE_CHUNKS: usize = UNIQUE_SAMPLES.div_ceil(LANES);
+
+#[cfg(not(target_arch = "arm"))]
+const _: () = assert!(LANE_CHUNKS * LANES <= PAD_SAMPLE && LANE_CHUNKS <= 32);
+
+/// Where no sample is: a lane past the last sample, farther than any scan point's reach.
+#[cfg(not(target_arch = "arm"))]
+const NOWHERE: f32 = 1.0e3;
+
+/// The samples' coordinates, [`LANES`] at a time: `[x, y]` of chunk `k`, samples
+/// `k · LANES ..` (the lanes past the last sample [`NOWHERE`]).
+#[cfg(not(target_arch = "arm"))]
+static SAMPLE_LANES: [[[f32; LANES]; 2]; LANE_CHUNKS] = {
+    let mut out = [[[NOWHERE; LANES]; 2]; LANE_CHUNKS];
+    let mut u = 0;
+    while u < UNIQUE_SAMPLES {
+        out[u / LANES][0][u % LANES] = SAMPLE_POINTS[u][0];
+        out[u / LANES][1][u % LANES] = SAMPLE_POINTS[u][1];
+        u += 1;
+    }
+    out
+};
+
+/// The box around chunk `k`'s samples, `[[x_min, x_max], [y_min, y_max]]` (the lanes past the
+/// last sample left out).
+#[cfg(not(target_arch = "arm"))]
+static LANE_BOXES: [[[f32; 2]; 2]; LANE_CHUNKS] = {
+    let mut out = [[[f32::MAX, f32::MIN]; 2]; LANE_CHUNKS];
+    let mut u = 0;
+    while u < UNIQUE_SAMPLES {
+        let b = &mut out[u / LANES];
+        let mut i = 0;
+        while i < 2 {
+            let v = SAMPLE_POINTS[u][i];
+            if v < b[i][0] {
+                b[i][0] = v;
+            }
+            if v > b[i][1] {
+                b[i][1] = v;
+            }
+            i += 1;
+        }
+        u += 1;
+    }
+    out
+};
+
+/// The greater of `a` and `b` (no NaN here).
+#[cfg(not(target_arch = "arm"))]
+#[inline(always)]
+fn at_least(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
+}
+
+/// The trajectories some sample of chunk `k` belongs to.
+#[cfg(not(target_arch = "arm"))]
+static LANE_UNION: [u64; LANE_CHUNKS] = {
+    let mut out = [0; LANE_CHUNKS];
+    let mut u = 0;
+    while u < UNIQUE_SAMPLES {
+        out[u / LANES] |= SAMPLE_TRAJECTORIES[u];
+        u += 1;
+    }
+    out
+};
+
+/// Every sample's trajectories, [`LANES`] at a time (none for the lanes past the last sample).
+#[cfg(not(target_arch = "arm"))]
+static LANE_TRAJECTORIES: [[u64; LANES]; LANE_CHUNKS] = {
+    let mut out = [[0; LANES]; LANE_CHUNKS];
+    let mut u = 0;
+    while u < UNIQUE_SAMPLES {
+        assert!(SAMPLE_TRAJECTORIES[u] != 0, "every sample has a trajectory");
+        out[u / LANES][u % LANES] = SAMPLE_TRAJECTORIES[u];
+        u += 1;
+    }
+    out
+};
 
 /// Range bins below the first that holds only beams at least the clip plus the largest spread
 /// (and the margin) long: `shorter[CLOSE_BINS]` holds every beam shorter.
@@ -1212,6 +1412,47 @@ mod tests {
                 bits(&tables[2]),
                 "observation {i}: {obs:?}"
             );
+        }
+    }
+
+    /// A chunk that `BEAM_CHUNKS` leaves out for a beam's range bin has no lane within the clip
+    /// of that beam's scan point at any range of the bin (every 0.5 mm up to the beam's reach,
+    /// and each bin's edges to the ulp), as the wide obstacle pass computes the points and the
+    /// squared distances.
+    #[test]
+    fn a_chunk_left_out_of_a_bin_is_beyond_the_clip() {
+        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
+        for j in 0..SCAN_BEAMS {
+            let mut ranges = std::vec::Vec::new();
+            let mut r = 0.0f32;
+            while r < BEAM_REACH[j] {
+                ranges.push(r);
+                r += 5.0e-4;
+            }
+            for b in 0..=RANGE_BINS {
+                let edge = b as f32 * RANGE_BIN_WIDTH;
+                ranges.extend([edge.next_down(), edge, edge.next_up()]);
+            }
+            for r in ranges {
+                let binned = r * (1.0 / RANGE_BIN_WIDTH) < RANGE_BINS as f32;
+                if !(r >= 0.0 && r < BEAM_REACH[j] && binned) {
+                    continue;
+                }
+                let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
+                let (px, py) = (r * BEAM_COS[j], r * BEAM_SIN[j]);
+                for (k, [sx, sy]) in SAMPLE_LANES.iter().enumerate() {
+                    if BEAM_CHUNKS[j][b] >> k & 1 == 1 {
+                        continue;
+                    }
+                    for l in 0..LANES {
+                        let (dx, dy) = (px - sx[l], py - sy[l]);
+                        assert!(
+                            dx * dx + dy * dy >= clip2,
+                            "beam {j} at {r} (bin {b}), chunk {k} lane {l}"
+                        );
+                    }
+                }
+            }
         }
     }
 
