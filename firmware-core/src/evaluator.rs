@@ -977,27 +977,23 @@ fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_AC
 
 /// The trajectories' ends, one array per coordinate.
 #[cfg(not(target_arch = "arm"))]
-static END_X: [f32; MAX_ACTIONS] = {
-    let mut out = [0.0; MAX_ACTIONS];
-    let mut a = 0;
-    while a < MAX_ACTIONS {
-        out[a] = END_POINTS[a][0];
-        a += 1;
-    }
-    out
-};
+static END_X: [f32; MAX_ACTIONS] = end_coordinate(0);
 
 /// See [`END_X`].
 #[cfg(not(target_arch = "arm"))]
-static END_Y: [f32; MAX_ACTIONS] = {
+static END_Y: [f32; MAX_ACTIONS] = end_coordinate(1);
+
+/// Coordinate `i` (0 for x, 1 for y) of every trajectory's end.
+#[cfg(not(target_arch = "arm"))]
+const fn end_coordinate(i: usize) -> [f32; MAX_ACTIONS] {
     let mut out = [0.0; MAX_ACTIONS];
     let mut a = 0;
     while a < MAX_ACTIONS {
-        out[a] = END_POINTS[a][1];
+        out[a] = END_POINTS[a][i];
         a += 1;
     }
     out
-};
+}
 
 /// Sets the clearance of every sample to `value` (the unused slots above stay 0).
 #[inline]
