@@ -113,7 +113,8 @@
 //! * the semantic pass takes, lane by lane, the least of the clip and each object's clearance
 //!   by one formula without a branch, skipping the chunks whose bounding box is out of the
 //!   object's reach (no per-cluster loops, cases or dominance test);
-//! * the rows start from the path and side features of every action computed side by side.
+//! * the rows start from the path and side features of every action (the car's
+//!   `PathFrame::path_and_side`), then are written whole, without the loops over bits.
 //!
 //! Each value comes from the same operations as on the car, so the masks and rows are the same
 //! bits (tested on random observations against the car's paths, run on the host).
@@ -945,54 +946,19 @@ fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS
     });
 }
 
-/// [`start_rows`] on a wide target: the path and side features of every action computed side by
-/// side, then every row written whole, without the loops over bits. The end in the reference's
-/// frame is nalgebra's `inverse_transform_point` written out, the same operations in the same
-/// order (the translation taken off, then the conjugate rotation: `re·x − im·y`,
-/// `im·x + re·y` with `im` the sine negated).
+/// [`start_rows`] on a wide target: the path and side features of every action first (the same
+/// [`PathFrame::path_and_side`]), then every row written whole, without the loops over bits.
 #[cfg(not(target_arch = "arm"))]
 fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS]) {
     const CLIPS: f32 = SAMPLES as f32;
-    let iso = &frame.reference;
-    let (re, im) = (iso.rotation.re, -iso.rotation.im);
-    let (tx, ty) = (iso.translation.vector.x, iso.translation.vector.y);
-    let mut path = [0.0f32; MAX_ACTIONS];
-    let mut side = [0.0f32; MAX_ACTIONS];
-    for a in 0..MAX_ACTIONS {
-        let (x, y) = (END_X[a], END_Y[a]);
-        let (vx, vy) = (x - tx, y - ty);
-        let (lx, ly) = (re * vx - im * vy, im * vx + re * vy);
-        let error = libm::fabsf(lx) + libm::fabsf(ly);
-        path[a] = if error < PATH_CLIP { error } else { PATH_CLIP };
-        side[a] = -RIGHT_SCALE * y;
-    }
-    for (a, row) in rows.iter_mut().enumerate() {
+    let ends: [[f32; 2]; MAX_ACTIONS] = core::array::from_fn(|a| frame.path_and_side(a));
+    for (a, (row, &[path, side])) in rows.iter_mut().zip(&ends).enumerate() {
         *row = if allowed >> a & 1 != 0 {
-            [CLIPS, CLIPS, CLIPS, CLIPS, path[a], side[a]]
+            [CLIPS, CLIPS, CLIPS, CLIPS, path, side]
         } else {
             [0.0; FEATURE_COUNT]
         };
     }
-}
-
-/// The trajectories' ends, one array per coordinate.
-#[cfg(not(target_arch = "arm"))]
-static END_X: [f32; MAX_ACTIONS] = end_coordinate(0);
-
-/// See [`END_X`].
-#[cfg(not(target_arch = "arm"))]
-static END_Y: [f32; MAX_ACTIONS] = end_coordinate(1);
-
-/// Coordinate `i` (0 for x, 1 for y) of every trajectory's end.
-#[cfg(not(target_arch = "arm"))]
-const fn end_coordinate(i: usize) -> [f32; MAX_ACTIONS] {
-    let mut out = [0.0; MAX_ACTIONS];
-    let mut a = 0;
-    while a < MAX_ACTIONS {
-        out[a] = END_POINTS[a][i];
-        a += 1;
-    }
-    out
 }
 
 /// Sets the clearance of every sample to `value` (the unused slots above stay 0).
