@@ -430,24 +430,35 @@ impl Tracker {
     /// operations of nalgebra's `dot` and `norm_squared` written out, `x0·y0 + x1·y1`) are
     /// computed in one loop without branches, which the compiler vectorizes; then the nearest.
     fn station(&self, at: Point2<f64>) -> f64 {
-        let narrow_by = self.narrow_by.take();
-        let n = if narrow_by.is_some() {
-            SAMPLES
-        } else {
-            self.near.get()
-        };
-        let (t, d2) = self.projections(at, n);
+        if let Some(travel) = self.narrow_by.take() {
+            let (s, best, d2) = self.nearest::<SAMPLES>(at);
+            self.narrow(&d2, best, travel);
+            return s;
+        }
+        // A constant number of segments each (an even one: the loop vectorized by pairs without
+        // a remainder); the segments past `near` that it takes are never the first nearest.
+        match self.near.get() {
+            0..=2 => self.nearest::<2>(at).0,
+            3..=4 => self.nearest::<4>(at).0,
+            5..=6 => self.nearest::<6>(at).0,
+            7..=8 => self.nearest::<8>(at).0,
+            _ => self.nearest::<SAMPLES>(at).0,
+        }
+    }
+
+    /// The station of `at`'s projection onto the first nearest of the first `N` segments, its
+    /// squared distance, and every one's squared distance (the rest 0).
+    #[inline(always)]
+    fn nearest<const N: usize>(&self, at: Point2<f64>) -> (f64, f64, [f64; SAMPLES]) {
+        let (t, d2) = self.projections(at, N);
         let g = &self.segments;
         let (mut s, mut best) = (0.0f64, f64::INFINITY);
-        for i in 0..n {
+        for i in 0..N.min(SAMPLES) {
             if d2[i] < best {
                 (s, best) = (g.s0[i] + t[i] * g.len[i], d2[i]);
             }
         }
-        if let Some(travel) = narrow_by {
-            self.narrow(&d2, best, travel);
-        }
-        s
+        (s, best, d2)
     }
 
     /// Narrows the projections ([`Tracker::station`]) after the next one to the segments that
