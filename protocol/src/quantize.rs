@@ -181,27 +181,36 @@ pub fn quantize(obs: &Observation) -> Observation {
     for (q, &r) in scan.ranges.iter_mut().zip(&obs.scan.ranges) {
         *q = range_value(range_code(r));
     }
-    let mut objects = ObjectList::new();
-    for o in &obs.objects {
-        // As many objects as the observation's list holds: there is room.
-        let _ = objects.push(SemanticObject {
-            class: o.class,
-            x: mm_value(mm_code(o.x, OBJECT_COORDINATE_BOUND)),
-            y: mm_value(mm_code(o.y, OBJECT_COORDINATE_BOUND)),
-            radius: radius_value(radius_code(o.radius)),
-        });
-    }
-    let r = &obs.reference;
-    Observation {
+    quantize_but_scan(Observation {
         scan,
-        objects,
-        reference: PathReference {
-            x: mm_value(mm_code(r.x, REFERENCE_COORDINATE_BOUND)),
-            y: mm_value(mm_code(r.y, REFERENCE_COORDINATE_BOUND)),
-            heading: heading_value(heading_code(r.heading)),
-        },
-        speed: mm_value(mm_code(obs.speed, MAX_SPEED)),
+        objects: obs.objects.clone(),
+        reference: obs.reference,
+        speed: obs.speed,
+    })
+}
+
+/// The scan range `r` (m) as [`quantize`] gives it: for a caller that quantizes each range as
+/// it makes it (most ranges of a simulated scan are one value, quantized once).
+#[inline]
+pub fn quantize_range(r: f32) -> f32 {
+    range_value(range_code(r))
+}
+
+/// [`quantize`] of `obs` but its scan, taken as it is: when every range of `obs` is already
+/// [`quantize_range`] of the range it stands for, this is `quantize` of the observation with
+/// those ranges, bit for bit (each number is quantized by itself).
+pub fn quantize_but_scan(mut obs: Observation) -> Observation {
+    for o in obs.objects.iter_mut() {
+        o.x = mm_value(mm_code(o.x, OBJECT_COORDINATE_BOUND));
+        o.y = mm_value(mm_code(o.y, OBJECT_COORDINATE_BOUND));
+        o.radius = radius_value(radius_code(o.radius));
     }
+    let r = &mut obs.reference;
+    r.x = mm_value(mm_code(r.x, REFERENCE_COORDINATE_BOUND));
+    r.y = mm_value(mm_code(r.y, REFERENCE_COORDINATE_BOUND));
+    r.heading = heading_value(heading_code(r.heading));
+    obs.speed = mm_value(mm_code(obs.speed, MAX_SPEED));
+    obs
 }
 
 /// The 64 ranges, 10 bits each, packed little-endian: range `j` is bits `10·j .. 10·j + 10` of
@@ -616,6 +625,17 @@ mod tests {
             // encoding and decoding it replaced.
             let wire = WireObservation::encode(&obs).decode();
             prop_assert_eq!(format!("{:?}", quantize(&obs)), format!("{:?}", wire));
+        }
+
+        #[test]
+        fn a_scan_quantized_range_by_range_is_quantize(obs in observation()) {
+            // What the simulator does: each range quantized as it is made, the rest after.
+            let mut scan = obs.scan;
+            for r in scan.ranges.iter_mut() {
+                *r = quantize_range(*r);
+            }
+            let by_parts = quantize_but_scan(Observation { scan, ..obs.clone() });
+            prop_assert_eq!(format!("{:?}", by_parts), format!("{:?}", quantize(&obs)));
         }
 
         #[test]

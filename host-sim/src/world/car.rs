@@ -23,6 +23,8 @@
 //! heading's `UnitComplex`, built from libm's cosine and sine as firmware-core's lattice does);
 //! all transcendental functions go through `libm`, so results are the same on every host.
 
+use std::cell::Cell;
+
 use firmware_core::lattice::{SAMPLES, Trajectory};
 use nalgebra::{Isometry2, Point2, UnitComplex, Vector2};
 
@@ -350,9 +352,16 @@ pub struct Tracker {
     last: Point2<f64>,
     /// Its length (the segments' lengths summed in order).
     total: f64,
-    /// The heading at the end, for the straight extension, as a rotation.
-    end_rotation: UnitComplex<f64>,
+    /// The heading at the end, for the straight extension (rad), and its rotation, computed
+    /// the first time the extension is needed (most ticks never reach it).
+    end_theta: f64,
+    end_rotation: std::cell::OnceCell<UnitComplex<f64>>,
     speed: f64,
+    /// How many segments, from the first, a projection looks at: all of them unless
+    /// [`Tracker::narrow_within`] showed the later ones too far to be the nearest.
+    near: Cell<usize>,
+    /// The travel of a [`Tracker::narrow_within`] the next projection narrows by.
+    narrow_by: Cell<Option<f64>>,
 }
 
 /// A [`Tracker`]'s segments, with what every projection onto them needs: segment `i` starts at
@@ -403,8 +412,11 @@ impl Tracker {
             segments: g,
             last: a,
             total: s0,
-            end_rotation: crate::world::car::rotation(origin.theta + trajectory.end().theta as f64),
+            end_theta: origin.theta + trajectory.end().theta as f64,
+            end_rotation: std::cell::OnceCell::new(),
             speed: trajectory.speed as f64,
+            near: Cell::new(SAMPLES),
+            narrow_by: Cell::new(None),
         }
     }
 
@@ -418,10 +430,76 @@ impl Tracker {
     /// operations of nalgebra's `dot` and `norm_squared` written out, `x0·y0 + x1·y1`) are
     /// computed in one loop without branches, which the compiler vectorizes; then the nearest.
     fn station(&self, at: Point2<f64>) -> f64 {
+        if let Some(travel) = self.narrow_by.take() {
+            let (s, best, d2) = self.nearest::<SAMPLES>(at);
+            self.narrow(&d2, best, travel);
+            return s;
+        }
+        // A constant number of segments each (an even one: the loop vectorized by pairs without
+        // a remainder); the segments past `near` that it takes are never the first nearest.
+        match self.near.get() {
+            0..=2 => self.nearest::<2>(at).0,
+            3..=4 => self.nearest::<4>(at).0,
+            5..=6 => self.nearest::<6>(at).0,
+            7..=8 => self.nearest::<8>(at).0,
+            _ => self.nearest::<SAMPLES>(at).0,
+        }
+    }
+
+    /// The station of `at`'s projection onto the first nearest of the first `N` segments, its
+    /// squared distance, and every one's squared distance (the rest 0).
+    #[inline(always)]
+    fn nearest<const N: usize>(&self, at: Point2<f64>) -> (f64, f64, [f64; SAMPLES]) {
+        let (t, d2) = self.projections(at, N);
+        let g = &self.segments;
+        let (mut s, mut best) = (0.0f64, f64::INFINITY);
+        for i in 0..N.min(SAMPLES) {
+            if d2[i] < best {
+                (s, best) = (g.s0[i] + t[i] * g.len[i], d2[i]);
+            }
+        }
+        (s, best, d2)
+    }
+
+    /// Narrows the projections ([`Tracker::station`]) after the next one to the segments that
+    /// can be the nearest to a point within `travel` metres of the next point projected (the
+    /// car's rear axle over a tick, projected first where it starts: [`Footprint::travel`]
+    /// bounds how far it moves). See [`Tracker::narrow`].
+    pub fn narrow_within(&mut self, travel: f64) {
+        self.narrow_by.set(Some(travel));
+    }
+
+    /// With `dᵢ` segment `i`'s distance from a point (`d2`: its square) and `m` the least
+    /// (`least`: its square), a point within `travel` of it is at least `dᵢ − travel` from
+    /// segment `i` and at most `m + travel` from the nearest, so a segment with
+    /// `dᵢ > m + 2·travel` (and a micrometre for rounding, far above the squared distances'
+    /// relative 10⁻¹⁶) is never the first nearest: the segments after the last one within that
+    /// bound are left out. The nearest among the rest is the same segment, its station the same
+    /// bits.
+    fn narrow(&self, d2: &[f64; SAMPLES], least: f64, travel: f64) {
+        // Compared squared (the micrometre is far above the squares' rounding).
+        let bound = libm::sqrt(least) + 2.0 * travel + 1e-6;
+        let bound2 = bound * bound;
+        // NaN (never: finite poses) keeps every segment.
+        let mut near = 0;
+        for (i, &d2) in d2.iter().enumerate() {
+            if d2 <= bound2 || d2.is_nan() {
+                near = i + 1;
+            }
+        }
+        if near > 0 {
+            self.near.set(near);
+        }
+    }
+
+    /// The parameter along each of the first `n` segments of `at`'s projection and the
+    /// squared distance to it (the rest 0).
+    #[inline(always)]
+    fn projections(&self, at: Point2<f64>, n: usize) -> ([f64; SAMPLES], [f64; SAMPLES]) {
         let g = &self.segments;
         let mut t = [0.0f64; SAMPLES];
         let mut d2 = [0.0f64; SAMPLES];
-        for i in 0..SAMPLES {
+        for i in 0..n.min(SAMPLES) {
             let (rx, ry) = (at.x - g.ax[i], at.y - g.ay[i]);
             let q = (rx * g.dx[i] + ry * g.dy[i]) / g.len2[i];
             // `q.clamp(0.0, 1.0)` written out: the same values (NaN included), but with
@@ -441,13 +519,7 @@ impl Tracker {
             t[i] = ti;
             d2[i] = ex * ex + ey * ey;
         }
-        let (mut s, mut best) = (0.0f64, f64::INFINITY);
-        for i in 0..SAMPLES {
-            if d2[i] < best {
-                (s, best) = (g.s0[i] + t[i] * g.len[i], d2[i]);
-            }
-        }
-        s
+        (t, d2)
     }
 
     /// Steering command for the car at `pose`.
@@ -460,7 +532,10 @@ impl Tracker {
         let g = &self.segments;
         let target_s = self.station(pose.position()) + Self::LOOKAHEAD;
         let goal = if target_s >= self.total {
-            self.last + self.end_rotation * Vector2::new(target_s - self.total, 0.0)
+            let end = *self
+                .end_rotation
+                .get_or_init(|| crate::world::car::rotation(self.end_theta));
+            self.last + end * Vector2::new(target_s - self.total, 0.0)
         } else {
             (0..SAMPLES)
                 .find(|&i| g.s0[i] + g.len[i] >= target_s)
@@ -487,8 +562,8 @@ impl Tracker {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use firmware_core::ActionIndex;
     use firmware_core::lattice::trajectory;
+    use firmware_core::{ActionIndex, MAX_ACTIONS};
 
     #[test]
     fn a_footprint_clear_within_its_travel_hits_nothing_for_a_tick() {
@@ -730,6 +805,45 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_narrowed_projection_is_the_whole_one_bit_for_bit() {
+        let mut uniform = crate::world::test_uniform(29);
+        let mut narrowed = 0;
+        for _ in 0..500 {
+            for a in ActionIndex::all() {
+                let origin = Pose {
+                    x: 20.0 * uniform() - 10.0,
+                    y: 20.0 * uniform() - 10.0,
+                    theta: 7.0 * uniform() - 3.5,
+                };
+                let whole = Tracker::new(origin, trajectory(a));
+                let mut tr = whole.clone();
+                let travel = 0.3 * uniform();
+                // From the start (as a tick narrows) or a point near the trajectory.
+                let from = if uniform() < 0.5 {
+                    origin.position()
+                } else {
+                    Point2::new(origin.x + uniform() - 0.5, origin.y + uniform() - 0.5)
+                };
+                tr.narrow_within(travel);
+                assert_eq!(tr.station(from).to_bits(), whole.station(from).to_bits());
+                narrowed += usize::from(tr.near.get() < SAMPLES);
+                for _ in 0..8 {
+                    // Within `travel` of `from` (up to its boundary).
+                    let (r, phi) = (travel * uniform().sqrt(), 7.0 * uniform());
+                    let at = Point2::new(from.x + r * phi.cos(), from.y + r * phi.sin());
+                    assert_eq!(
+                        tr.station(at).to_bits(),
+                        whole.station(at).to_bits(),
+                        "{a}: {origin:?} {from:?} {at:?} {travel}"
+                    );
+                }
+            }
+        }
+        // The narrowing leaves segments out on most of these.
+        assert!(narrowed > 500 * MAX_ACTIONS / 4, "{narrowed}");
     }
 
     #[test]

@@ -55,7 +55,9 @@ use firmware_core::{ActionIndex, MAX_ACTIONS};
 use nalgebra::Isometry2;
 
 use crate::world::car::{CarParams, CarState, Footprint, Pose, Tracker, wrap_angle};
+use crate::world::map::Viewpoint;
 use crate::world::scenario::Scenario;
+use protocol::quantize::{quantize_but_scan, quantize_range};
 
 /// Range of the semantic detector (m).
 pub const SENSOR_RANGE: f64 = 5.0;
@@ -288,13 +290,15 @@ impl Episode {
         };
         // The heading's cosine and sine, once per pose (each use would compute the same bits).
         let mut rotation = self.car.pose.rotation();
-        let tracker = Tracker::new_turned(self.car.pose, rotation, trajectory(action));
+        let mut tracker = Tracker::new_turned(self.car.pose, rotation, trajectory(action));
         let footprint = self.footprint;
         let dt = TICK_SECONDS / PHYSICS_STEPS as f64;
         // Far enough from every wall for the whole tick: no step's footprint test can hit.
         let speed = self.car.speed.abs().max(tracker.speed().abs());
         let travel = footprint.travel(PHYSICS_STEPS, dt, speed);
         let clear = footprint.clear_within(&self.scenario.map, self.car.pose, rotation, travel);
+        // The rear axle moves less than the footprint's centre (`travel` bounds both).
+        tracker.narrow_within(travel);
         for _ in 0..PHYSICS_STEPS {
             let steer = tracker.steering_turned(self.car.pose, rotation, &self.params);
             rotation = self
@@ -465,11 +469,14 @@ fn observe_within(
     // more reads what its cast would give, SCAN_MAX_RANGE, without the cast.
     let view = map.viewpoint(pose.x, pose.y);
     let free = (f64::from(view.clearance_cells()) - 2.0) * map.resolution();
+    // Each range quantized to the wire's step as it is made (`quantize_but_scan` below leaves
+    // the scan as it is): the sensor's range, most beams', once.
+    let far = quantize_range(SCAN_MAX_RANGE);
     for (j, ((&(bc, bs), &cut), &cells)) in
         BEAM_DIRECTIONS.iter().zip(cut).zip(cut_cells).enumerate()
     {
         if cut <= free {
-            scan.ranges[j] = SCAN_MAX_RANGE;
+            scan.ranges[j] = far;
             continue;
         }
         // The beam's direction in the grid's frame, once for both tests below.
@@ -478,23 +485,23 @@ fn observe_within(
         if cut < SCAN_MAX_RANGE as f64
             && map.free_by_points_in_grid(&view, along, cells, SCAN_FREE_POINTS)
         {
-            scan.ranges[j] = SCAN_MAX_RANGE;
+            scan.ranges[j] = far;
             continue;
         }
         let r = map.raycast_in_grid(&view, along, cut);
         scan.ranges[j] = if r >= cut {
-            SCAN_MAX_RANGE
+            far
         } else {
-            (r as f32).min(SCAN_MAX_RANGE)
+            quantize_range((r as f32).min(SCAN_MAX_RANGE))
         };
     }
     let iso = pose.isometry_turned(rotation);
-    let objects = detect_from(scenario, pose, &iso);
+    let objects = detect_from(scenario, pose, &iso, &view);
     let (r, rh) = scenario.path.point_at(s + LOOKAHEAD);
     let local = iso.inverse_transform_point(&r);
     let pi = std::f32::consts::PI;
     let heading = (wrap_angle(rh - pose.theta) as f32).clamp(-pi, pi);
-    protocol::quantize::quantize(&Observation {
+    quantize_but_scan(Observation {
         scan,
         objects,
         reference: PathReference {
@@ -508,11 +515,22 @@ fn observe_within(
 
 /// The semantic detections from `pose`.
 pub fn detect(scenario: &Scenario, pose: Pose) -> ObjectList {
-    detect_from(scenario, pose, &pose.isometry())
+    detect_from(
+        scenario,
+        pose,
+        &pose.isometry(),
+        &scenario.map.viewpoint(pose.x, pose.y),
+    )
 }
 
-/// [`detect`] with the pose's transform given (`pose.isometry()`).
-fn detect_from(scenario: &Scenario, pose: Pose, iso: &Isometry2<f64>) -> ObjectList {
+/// [`detect`] with the pose's transform given (`pose.isometry()`) and its viewpoint on the
+/// map (`scenario.map.viewpoint(pose.x, pose.y)`).
+fn detect_from(
+    scenario: &Scenario,
+    pose: Pose,
+    iso: &Isometry2<f64>,
+    view: &Viewpoint,
+) -> ObjectList {
     let p = pose.position();
     let slack = LOS_SLACK_CELLS * scenario.map.resolution();
     // The MAX_OBJECTS nearest seen so far, in order (distance, then scenario order), kept by
@@ -521,7 +539,11 @@ fn detect_from(scenario: &Scenario, pose: Pose, iso: &Isometry2<f64>) -> ObjectL
     let mut len = 0;
     for (i, o) in scenario.objects.iter().enumerate() {
         let (q, d) = o.nearest_point(&p);
-        if d <= SENSOR_RANGE && scenario.map.line_of_sight((p.x, p.y), (q.x, q.y), slack) {
+        if d <= SENSOR_RANGE
+            && scenario
+                .map
+                .line_of_sight_from(view, (p.x, p.y), (q.x, q.y), slack)
+        {
             // Behind every one as near (they come earlier in the scenario).
             let at = nearest[..len].partition_point(|n| n.0.total_cmp(&d).is_le());
             if at < MAX_OBJECTS {

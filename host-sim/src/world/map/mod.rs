@@ -502,6 +502,18 @@ impl OccupancyGrid {
     /// Whether the straight segment from `a` to `b` crosses no blocked cell before the last
     /// `slack` metres (the end may lie in or on a blocked object).
     pub fn line_of_sight(&self, a: (f64, f64), b: (f64, f64), slack: f64) -> bool {
+        self.line_of_sight_from(&self.viewpoint(a.0, a.1), a, b, slack)
+    }
+
+    /// [`OccupancyGrid::line_of_sight`] with `a`'s viewpoint given (`self.viewpoint(a.0, a.1)`,
+    /// computed once for every segment from `a`): the same answer.
+    pub fn line_of_sight_from(
+        &self,
+        view: &Viewpoint,
+        a: (f64, f64),
+        b: (f64, f64),
+        slack: f64,
+    ) -> bool {
         let (dx, dy) = (b.0 - a.0, b.1 - a.1);
         let len = libm::sqrt(dx * dx + dy * dy);
         let reach = len - slack;
@@ -511,10 +523,9 @@ impl OccupancyGrid {
         let along = (dx / len, dy / len);
         // Free a cell beyond the reach: the cast would end at the reach (no cast needed). One
         // viewpoint for both.
-        let view = self.viewpoint(a.0, a.1);
         let along = self.grid_direction(along);
-        self.free_by_points_in_grid(&view, along, (reach + self.resolution) / self.resolution, 2)
-            || self.raycast_in_grid(&view, along, reach) >= reach
+        self.free_by_points_in_grid(view, along, (reach + self.resolution) / self.resolution, 2)
+            || self.raycast_in_grid(view, along, reach) >= reach
     }
 
     /// Whether every point of the segment from `(x, y)` along the unit vector `(dx, dy)` (world
