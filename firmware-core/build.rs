@@ -732,6 +732,28 @@ fn main() {
     )
     .unwrap();
     writeln!(out, "pub const WINDOW_PAIRS: usize = {window_pairs};").unwrap();
+    // Every sample as one cluster (the centre of their bounding box, the largest distance from
+    // it, rounded up as above): the semantic pass settles an object for the whole lattice at
+    // once where it can (see `Evaluator::semantic`).
+    let every: Vec<usize> = (0..points.len()).collect();
+    let (centre, spread, _) = bounds(&every);
+    let spread = (spread * (1.0 + 1e-6) + 1e-6) as f32;
+    let (_, clip) = reach(centre, OBSTACLE_CLIP as f64 + spread as f64);
+    let trajectories = trajectories_of.iter().fold(0u64, |m, &t| m | t);
+    writeln!(
+        out,
+        "/// Every sample as one cluster: the centre of their bounding box, and the largest distance from it."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static LATTICE: Cluster = Cluster {{ centre: [{:?}, {:?}], spread: {:?}, samples: [0, {}], trajectories: {trajectories:#018x}, clip: {clip} }};",
+        centre[0] as f32,
+        centre[1] as f32,
+        spread,
+        points.len()
+    )
+    .unwrap();
     // Sums along trajectories share their starts: cruise trajectories with the same first
     // curvature share their first samples (all but the last of the first segment: that one lies a
     // hair into the second segment, f32 spacing times five being just above 0.5 m). Each

@@ -175,7 +175,7 @@ impl ActionMask {
     /// The allowed actions in increasing order.
     #[inline]
     pub fn iter(self) -> MaskIter {
-        MaskIter(self.0)
+        MaskIter([self.0 as u32, (self.0 >> 32) as u32])
     }
 }
 
@@ -197,25 +197,34 @@ impl IntoIterator for ActionMask {
     }
 }
 
-/// Iterator over the allowed actions of an [`ActionMask`], lowest first.
+/// Iterator over the allowed actions of an [`ActionMask`], lowest first: actions 0–31, then
+/// 32–63, one 32-bit half each (a 64-bit count of trailing zeros or clear of the lowest bit is
+/// several instructions on a Cortex-M4).
 #[derive(Clone, Debug)]
-pub struct MaskIter(u64);
+pub struct MaskIter([u32; 2]);
 
 impl Iterator for MaskIter {
     type Item = ActionIndex;
 
     #[inline]
     fn next(&mut self) -> Option<ActionIndex> {
-        if self.0 == 0 {
+        let [lo, hi] = &mut self.0;
+        let i = if *lo != 0 {
+            let i = lo.trailing_zeros();
+            *lo &= *lo - 1;
+            i
+        } else if *hi != 0 {
+            let i = hi.trailing_zeros() + 32;
+            *hi &= *hi - 1;
+            i
+        } else {
             return None;
-        }
-        let i = self.0.trailing_zeros();
-        self.0 &= self.0 - 1;
+        };
         Some(ActionIndex(i as u8))
     }
 
     fn size_hint(&self) -> (usize, Option<usize>) {
-        let n = self.0.count_ones() as usize;
+        let n = (self.0[0].count_ones() + self.0[1].count_ones()) as usize;
         (n, Some(n))
     }
 }

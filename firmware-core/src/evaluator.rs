@@ -70,7 +70,12 @@
 //!    side features, and only a trajectory with a sample within a clip takes a sum. Semantic objects are
 //!    pruned per cluster the same way (reach, and an object that is farther than another for
 //!    every member), and where the centre's distance settles a test for every member at once
-//!    (outside the disc, within the clip, inside the disc), a loop without it runs.
+//!    (outside the disc, within the clip, inside the disc), a loop without it runs. The whole
+//!    lattice is such a cluster too (`LATTICE`, tested first): an object that another is
+//!    farther than for every sample is left out of every cluster's tests, and where one object
+//!    alone is within the clip and outside its disc for every sample, no cluster is tested at
+//!    all; a cluster whose centre's squared distance from a lone object lies in a band set once
+//!    per object for the largest spread takes that loop without the centre's root.
 //!
 //! Every skipped beam, object or test is provably irrelevant (each decision keeps a 1 mm margin,
 //! far above the rounding of these distances), so pruning changes no result.
@@ -137,9 +142,9 @@ use crate::action::{ActionMask, MAX_ACTIONS};
 use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
 use crate::lattice::{
     BEAM_COS, BEAM_REACH, BEAM_SIN, CLUSTERS, Cluster, END_POINTS, HEAD_COUNT, HEAD_OF, HEADS,
-    MAX_CLUSTER_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE, RANGE_BIN_WIDTH, RANGE_BINS,
-    REACH_MARGIN, ROW_SCALE, Reach, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS,
-    TAIL_OF, UNIQUE_SAMPLES,
+    LATTICE, MAX_CLUSTER_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE, RANGE_BIN_WIDTH,
+    RANGE_BINS, REACH_MARGIN, ROW_SCALE, Reach, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES,
+    SCAN_BEAMS, TAIL_OF, UNIQUE_SAMPLES,
 };
 use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
@@ -673,6 +678,7 @@ impl Evaluator {
     }
 
     /// The clearance feature of one semantic class, for every allowed trajectory.
+    #[inline(never)]
     fn semantic<const W: bool>(
         &mut self,
         obs: &Observation,
@@ -693,13 +699,7 @@ impl Evaluator {
                 continue;
             }
             if let Some(slot) = objects.get_mut(n) {
-                *slot = Disc {
-                    x: o.x,
-                    y: o.y,
-                    radius: o.radius,
-                    reach,
-                    reach2: reach * reach,
-                };
+                *slot = Disc::new(o.x, o.y, o.radius);
                 n += 1;
             }
         }
@@ -717,6 +717,29 @@ impl Evaluator {
             self.semantic_lanes(objects, allowed, f, rows);
             return;
         }
+        // The objects that may be the nearest of the class to some sample: the dominance test
+        // over the whole lattice as one cluster ([`LATTICE`]). When one alone is left, the
+        // others are left out of every cluster's tests (each cluster's own test would leave
+        // them out too: its members are within the lattice's spread of its centre), and where
+        // the lattice is within its clip and outside its disc, every sample an allowed
+        // trajectory has reads its root less the radius, without a test per cluster.
+        let (near, centre) = if n == 1 {
+            let o = &objects[0];
+            let (dx, dy) = (LATTICE.centre[0] - o.x, LATTICE.centre[1] - o.y);
+            (1, sqrt(dx * dx + dy * dy))
+        } else {
+            dominant(objects, (1 << n) - 1, &LATTICE)
+        };
+        let objects = if near & (near - 1) == 0 {
+            let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+            if self.settled(o, centre, allowed) {
+                self.sum_rows(allowed, allowed, f, SEMANTIC_CLIP, rows);
+                return;
+            }
+            core::slice::from_ref(o)
+        } else {
+            objects
+        };
         let mut touched = 0u64;
         for cluster in &CLUSTERS {
             // A cluster no allowed trajectory uses is skipped (the sums read no member of it);
@@ -753,6 +776,13 @@ impl Evaluator {
                 continue;
             }
             touched |= cluster.trajectories;
+            if near & (near - 1) == 0 {
+                let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                if o.inner2 < last2 && last2 < o.outer2 {
+                    self.roots(cluster, o);
+                    continue;
+                }
+            }
             let centre;
             (near, centre) = if near & (near - 1) == 0 {
                 (near, sqrt(last2))
@@ -849,6 +879,49 @@ impl Evaluator {
             return;
         }
         self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
+    }
+
+    /// Whether the whole lattice ([`LATTICE`]) is within the clip of `o` and outside its disc
+    /// (`centre` the distance from the lattice's centre to the object's; the same tests, with
+    /// the same margin, as [`Evaluator::one_object`]'s loop without tests); if so, writes the
+    /// clearance of every member of every cluster an allowed trajectory uses, as that loop
+    /// does (the same values, bit for bit, as the general loop: every member is within reach,
+    /// outside the disc and nearer than the clip beyond it).
+    fn settled(&mut self, o: &Disc, centre: f32, allowed: u64) -> bool {
+        let spread = LATTICE.spread + REACH_MARGIN;
+        if !(centre + spread < o.reach
+            && centre - spread > o.radius
+            && centre + spread < SEMANTIC_CLIP + o.radius)
+        {
+            return false;
+        }
+        for cluster in &CLUSTERS {
+            if cluster.trajectories & allowed == 0 {
+                continue;
+            }
+            self.roots(cluster, o);
+        }
+        true
+    }
+
+    /// Every member of `cluster` reads its root less the radius of `o`: the general loop's
+    /// value where every member is within reach, outside the disc by more than a millimetre
+    /// and nearer than the clip beyond it.
+    #[inline]
+    fn roots(&mut self, cluster: &Cluster, o: &Disc) {
+        let (ox, oy, radius) = (o.x, o.y, o.radius);
+        let start = usize::from(cluster.samples[0]);
+        let end = usize::from(cluster.samples[1]).min(UNIQUE_SAMPLES);
+        let (Some(points), Some(clearance)) = (
+            SAMPLE_POINTS.get(start..end),
+            self.clearance.get_mut(start..end),
+        ) else {
+            return;
+        };
+        for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
+            let (dx, dy) = (sx - ox, sy - oy);
+            *c = newton_sqrt(dx * dx + dy * dy) - radius;
+        }
     }
 
     /// The semantic clearance of every member of `cluster` when one object `o` alone can be the
@@ -997,6 +1070,12 @@ struct Disc {
     radius: f32,
     reach: f32,
     reach2: f32,
+    /// A cluster whose centre's squared distance from the object's is between these two has
+    /// every member outside the disc and nearer than the clip beyond it, whatever its spread
+    /// (at most [`MAX_CLUSTER_SPREAD`]), with a 2 mm margin: its members read their roots less
+    /// the radius, without the centre's root.
+    inner2: f32,
+    outer2: f32,
 }
 
 impl Disc {
@@ -1007,13 +1086,34 @@ impl Disc {
         radius: 0.0,
         reach: 0.0,
         reach2: 0.0,
+        inner2: 0.0,
+        outer2: 0.0,
     };
+
+    /// The disc of an object within reach of some sample.
+    fn new(x: f32, y: f32, radius: f32) -> Self {
+        let reach = SEMANTIC_CLIP + radius + REACH_MARGIN;
+        let slack = MAX_CLUSTER_SPREAD + 2.0 * REACH_MARGIN;
+        let inner = radius + slack;
+        let outer = SEMANTIC_CLIP + radius - slack;
+        Self {
+            x,
+            y,
+            radius,
+            reach,
+            reach2: reach * reach,
+            inner2: inner * inner,
+            outer2: outer * outer,
+        }
+    }
 }
 
 /// Of the objects `near` (bits into `objects`), those whose clearance may be the least of the
 /// class for some member of `cluster`, and the distance from the centre to the last of them: an
 /// object whose clearance exceeds, for every member, another's largest possible one is left out
-/// (with a 1 mm margin, far above the rounding of these distances).
+/// (with a 1 mm margin, far above the rounding of these distances). Inlined in both its callers
+/// (a call of its own costs the worst real ticks about 1 K instructions on the car).
+#[inline(always)]
 fn dominant(objects: &[Disc], near: u32, cluster: &Cluster) -> (u32, f32) {
     let spread = cluster.spread + REACH_MARGIN;
     let [cx, cy] = cluster.centre;
