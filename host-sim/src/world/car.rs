@@ -461,10 +461,10 @@ impl Tracker {
         (s, best, d2)
     }
 
-    /// Narrows the projections ([`Tracker::station`]) after the next one to the segments that
+    /// Narrows the projections (`Tracker::station`) after the next one to the segments that
     /// can be the nearest to a point within `travel` metres of the next point projected (the
     /// car's rear axle over a tick, projected first where it starts: [`Footprint::travel`]
-    /// bounds how far it moves). See [`Tracker::narrow`].
+    /// bounds how far it moves). See `Tracker::narrow`.
     pub fn narrow_within(&mut self, travel: f64) {
         self.narrow_by.set(Some(travel));
     }
