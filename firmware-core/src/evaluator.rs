@@ -888,11 +888,7 @@ impl Evaluator {
     /// does (the same values, bit for bit, as the general loop: every member is within reach,
     /// outside the disc and nearer than the clip beyond it).
     fn settled(&mut self, o: &Disc, centre: f32, allowed: u64) -> bool {
-        let spread = LATTICE.spread + REACH_MARGIN;
-        if !(centre + spread < o.reach
-            && centre - spread > o.radius
-            && centre + spread < SEMANTIC_CLIP + o.radius)
-        {
+        if !o.settles(centre, LATTICE.spread) {
             return false;
         }
         for cluster in &CLUSTERS {
@@ -933,12 +929,11 @@ impl Evaluator {
     /// or every member inside the disc (0). `centre` is the distance from the cluster's centre to
     /// the object's.
     fn one_object(&mut self, cluster: &Cluster, o: &Disc, centre: f32) {
+        if o.settles(centre, cluster.spread) {
+            self.roots(cluster, o);
+            return;
+        }
         let spread = cluster.spread + REACH_MARGIN;
-        // Every member within reach, outside the disc by more than a millimetre (d > 0, and no
-        // test of the root's argument), and nearer than the clip beyond the disc (d < clip).
-        let settled = centre + spread < o.reach
-            && centre - spread > o.radius
-            && centre + spread < SEMANTIC_CLIP + o.radius;
         let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
         let start = usize::from(cluster.samples[0]);
         let end = usize::from(cluster.samples[1]).min(UNIQUE_SAMPLES);
@@ -948,13 +943,6 @@ impl Evaluator {
         ) else {
             return;
         };
-        if settled {
-            for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
-                let (dx, dy) = (sx - ox, sy - oy);
-                *c = newton_sqrt(dx * dx + dy * dy) - radius;
-            }
-            return;
-        }
         if centre - spread > radius {
             // Outside the disc by more than a millimetre, but some member may be beyond the
             // clip: no test of the root's sign; a member beyond the reach reads the clip without
@@ -1089,6 +1077,18 @@ impl Disc {
         inner2: 0.0,
         outer2: 0.0,
     };
+
+    /// Whether every point within `spread` of a point `centre` metres from the object's centre
+    /// is within reach, outside the disc by more than a millimetre (its clearance, the root less
+    /// the radius, is positive, with no test of the root's argument) and nearer than the clip
+    /// beyond the disc: its clearance is then its root less the radius ([`Evaluator::roots`]).
+    #[inline(always)]
+    fn settles(&self, centre: f32, spread: f32) -> bool {
+        let spread = spread + REACH_MARGIN;
+        centre + spread < self.reach
+            && centre - spread > self.radius
+            && centre + spread < SEMANTIC_CLIP + self.radius
+    }
 
     /// The disc of an object within reach of some sample.
     fn new(x: f32, y: f32, radius: f32) -> Self {
