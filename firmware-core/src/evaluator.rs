@@ -900,18 +900,24 @@ impl Evaluator {
         true
     }
 
+    /// The points of `cluster`'s members and their clearances.
+    #[inline(always)]
+    fn members_mut(&mut self, cluster: &Cluster) -> Option<(&'static [[f32; 2]], &mut [f32])> {
+        let start = usize::from(cluster.samples[0]);
+        let end = usize::from(cluster.samples[1]).min(UNIQUE_SAMPLES);
+        Some((
+            SAMPLE_POINTS.get(start..end)?,
+            self.clearance.get_mut(start..end)?,
+        ))
+    }
+
     /// Every member of `cluster` reads its root less the radius of `o`: the general loop's
     /// value where every member is within reach, outside the disc by more than a millimetre
     /// and nearer than the clip beyond it.
     #[inline]
     fn roots(&mut self, cluster: &Cluster, o: &Disc) {
         let (ox, oy, radius) = (o.x, o.y, o.radius);
-        let start = usize::from(cluster.samples[0]);
-        let end = usize::from(cluster.samples[1]).min(UNIQUE_SAMPLES);
-        let (Some(points), Some(clearance)) = (
-            SAMPLE_POINTS.get(start..end),
-            self.clearance.get_mut(start..end),
-        ) else {
+        let Some((points, clearance)) = self.members_mut(cluster) else {
             return;
         };
         for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
@@ -935,12 +941,7 @@ impl Evaluator {
         }
         let spread = cluster.spread + REACH_MARGIN;
         let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
-        let start = usize::from(cluster.samples[0]);
-        let end = usize::from(cluster.samples[1]).min(UNIQUE_SAMPLES);
-        let (Some(points), Some(clearance)) = (
-            SAMPLE_POINTS.get(start..end),
-            self.clearance.get_mut(start..end),
-        ) else {
+        let Some((points, clearance)) = self.members_mut(cluster) else {
             return;
         };
         if centre - spread > radius {
