@@ -470,6 +470,58 @@ mod tests {
         assert_eq!(o.validate(), Err(ObservationError::Speed));
     }
 
+    /// Every number of an observation, set to a NaN or an infinity of either sign, is refused
+    /// with its field's error: the checks compare with finite bounds and test no `is_finite`, so
+    /// this is what says a non-finite number never passes them.
+    #[test]
+    fn every_non_finite_number_is_refused_by_its_field() {
+        let mut good = Observation::open_space();
+        good.objects
+            .push(SemanticObject {
+                class: SemanticClass::Door,
+                x: 1.0,
+                y: -1.0,
+                radius: 0.4,
+            })
+            .unwrap();
+        assert_eq!(good.validate(), Ok(()));
+        type Field = (fn(&mut Observation) -> &mut f32, ObservationError);
+        let fields: [Field; 9] = [
+            (
+                |o| &mut o.scan.ranges[0],
+                ObservationError::ScanRange { beam: 0 },
+            ),
+            (
+                |o| &mut o.scan.ranges[63],
+                ObservationError::ScanRange { beam: 63 },
+            ),
+            (
+                |o| &mut o.objects[0].x,
+                ObservationError::ObjectPosition { index: 0 },
+            ),
+            (
+                |o| &mut o.objects[0].y,
+                ObservationError::ObjectPosition { index: 0 },
+            ),
+            (
+                |o| &mut o.objects[0].radius,
+                ObservationError::ObjectRadius { index: 0 },
+            ),
+            (|o| &mut o.reference.x, ObservationError::Reference),
+            (|o| &mut o.reference.y, ObservationError::Reference),
+            (|o| &mut o.reference.heading, ObservationError::Reference),
+            (|o| &mut o.speed, ObservationError::Speed),
+        ];
+        for (field, error) in fields {
+            for bad in [f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+                let mut o = good.clone();
+                *field(&mut o) = bad;
+                assert_eq!(o.validate(), Err(error), "{bad} in {o:?}");
+                assert!(o.check().is_err());
+            }
+        }
+    }
+
     #[test]
     fn a_full_object_list_hands_the_object_back() {
         let mut o = Observation::open_space();
