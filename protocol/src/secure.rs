@@ -38,7 +38,8 @@
 //! status. The hello is authenticated under the fixed freshness value 0 (epoch 0 is never a
 //! car's), so it can be replayed: its only effect is a welcome, and moving the car's window
 //! forward to a counter the host really reached. The welcome is fresh because it repeats the
-//! nonce. A car that restarts takes a new epoch, so nothing recorded before its restart is
+//! nonce, and current because no newer message of the car in its epoch came before it (one
+//! that such messages overtook says what the car held before them, and is refused). A car that restarts takes a new epoch, so nothing recorded before its restart is
 //! accepted after it, and the host notices the restart: its messages go unanswered until it says
 //! hello again, and the welcome carries the new epoch and what the car holds.
 //!
@@ -374,7 +375,8 @@ pub enum Refusal {
     Mac,
     /// Its counter was accepted before: a copy.
     Replayed,
-    /// Its counter is older than the replay window, or the welcome answers no hello of ours.
+    /// Its counter is older than the replay window; or the welcome answers no hello of ours, or
+    /// newer messages of the car in its epoch came before it (its status is out of date).
     Stale,
     /// The host has no epoch yet (no welcome): only a welcome can be checked.
     Unsynced,
@@ -387,7 +389,9 @@ impl fmt::Display for Refusal {
         f.write_str(match self {
             Refusal::Mac => "MAC does not verify",
             Refusal::Replayed => "freshness counter already accepted (a copy)",
-            Refusal::Stale => "freshness older than the replay window",
+            Refusal::Stale => {
+                "freshness older than the replay window, or a welcome out of date or to no hello"
+            }
             Refusal::Unsynced => "no epoch yet (no welcome)",
             Refusal::Unkeyed => "no key installed",
         })
@@ -852,6 +856,14 @@ impl HostSecurity {
         match &mut self.sync {
             Some(s) if s.epoch == w.epoch => {
                 s.rx.check(w.counter)?;
+                // A welcome that newer messages of the car overtook on the way (delayed or
+                // reordered, by the bus or by anyone) says what the car held before them: older
+                // than what the host already took from them. The host is synchronised with this
+                // epoch already (it accepted them), so the welcome brings nothing but an old
+                // status, which would read as a car that lost what it was taught.
+                if s.rx.highest().is_some_and(|h| w.counter < h) {
+                    return Err(Refusal::Stale);
+                }
                 s.rx.accept(w.counter);
                 let next = s.next_tx.unwrap_or(u32::MAX);
                 if w.host_next > next {
@@ -1166,6 +1178,47 @@ mod tests {
         host.hello([2; NONCE_LEN]);
         assert_eq!(host.open(ws, &pdu), Err(OpenError::Refused(Refusal::Stale)));
         assert_eq!(host.epoch(), None);
+    }
+
+    #[test]
+    fn a_welcome_overtaken_by_newer_messages_of_the_car_is_refused() {
+        let mut car = CarSecurity::new(&KEY, 9);
+        let mut host = welcomed(&KEY, &mut car);
+        let mut buf = [0u8; MAX_MESSAGE_SIZE];
+        let from_car = stream(MessageKind::Heartbeat, Direction::CarToHost);
+        // The host says hello again (same epoch); the car welcomes it, then answers on: its
+        // status moves on (a feedback applied) and so do its counters.
+        let hello = host.hello([4; NONCE_LEN]);
+        let Message::Hello(h) = hello else { panic!() };
+        let old = CarStatus {
+            session: Some(1),
+            generation: 17,
+        };
+        let w = Message::Welcome(car.welcome(&h, old));
+        let ws = stream(MessageKind::Welcome, Direction::CarToHost);
+        let late = car.seal(&w, ws, &mut buf).unwrap().to_vec();
+        let newer = sealed(&mut car, &Message::Heartbeat, from_car);
+        // The welcome is held back on the way; the newer message arrives first.
+        assert_eq!(host.open(from_car, &newer), Ok(Message::Heartbeat));
+        assert_eq!(
+            host.open(ws, &late),
+            Err(OpenError::Refused(Refusal::Stale))
+        );
+        assert_eq!(host.refusals().stale, 1);
+        // Nothing else changed: the car's next message is accepted.
+        let next = sealed(&mut car, &Message::Heartbeat, from_car);
+        assert_eq!(host.open(from_car, &next), Ok(Message::Heartbeat));
+        // In order, the same welcome is accepted.
+        let mut car = CarSecurity::new(&KEY, 10);
+        let mut host = welcomed(&KEY, &mut car);
+        let Message::Hello(h) = host.hello([5; NONCE_LEN]) else {
+            panic!()
+        };
+        let w = Message::Welcome(car.welcome(&h, old));
+        let on_time = car.seal(&w, ws, &mut buf).unwrap().to_vec();
+        let after = sealed(&mut car, &Message::Heartbeat, from_car);
+        assert_eq!(host.open(ws, &on_time), Ok(w));
+        assert_eq!(host.open(from_car, &after), Ok(Message::Heartbeat));
     }
 
     #[test]
