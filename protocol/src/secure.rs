@@ -795,6 +795,8 @@ pub struct HostSecurity {
     sync: Option<Sync>,
     nonce: Option<[u8; NONCE_LEN]>,
     refused: RefusalStats,
+    /// The message opened last carried the highest car counter yet.
+    newest: bool,
 }
 
 impl HostSecurity {
@@ -805,6 +807,7 @@ impl HostSecurity {
             sync: None,
             nonce: None,
             refused: RefusalStats::ZERO,
+            newest: false,
         }
     }
 
@@ -828,6 +831,15 @@ impl HostSecurity {
     /// Refused PDUs so far.
     pub const fn refusals(&self) -> RefusalStats {
         self.refused
+    }
+
+    /// Whether the message opened last carried a car counter above every one accepted before in
+    /// its epoch (a welcome that is accepted always does). A message that is not the newest was
+    /// overtaken on the way by one the car sent after it (reordered or delayed, by the bus or by
+    /// anyone on it): what it says of the car's state is older than what the host already took
+    /// from the newer one.
+    pub const fn opened_newest(&self) -> bool {
+        self.newest
     }
 
     /// A hello with `nonce` (a number never used before: random), telling the car the epoch and
@@ -907,6 +919,7 @@ impl Endpoint for HostSecurity {
     }
 
     fn open(&mut self, stream: Stream, pdu: &[u8]) -> Result<Message, OpenError> {
+        self.newest = false;
         let pdu = SecuredPdu::new_checked(pdu)?;
         let msg = pdu.message()?;
         if let Message::Welcome(w) = &msg {
@@ -921,7 +934,11 @@ impl Endpoint for HostSecurity {
             }
             let w = *w;
             return match self.on_welcome(&w) {
-                Ok(()) => Ok(msg),
+                Ok(()) => {
+                    // Above every counter accepted in its epoch, or the first of a new one.
+                    self.newest = true;
+                    Ok(msg)
+                }
                 Err(r) => Err(self.refuse(r)),
             };
         }
@@ -939,6 +956,7 @@ impl Endpoint for HostSecurity {
         if let Err(r) = s.rx.check(counter) {
             return Err(self.refuse(r));
         }
+        self.newest = s.rx.highest().is_none_or(|h| counter > h);
         if let Some(s) = &mut self.sync {
             s.rx.accept(counter);
         }
@@ -1205,9 +1223,22 @@ mod tests {
             Err(OpenError::Refused(Refusal::Stale))
         );
         assert_eq!(host.refusals().stale, 1);
-        // Nothing else changed: the car's next message is accepted.
+        // Nothing else changed: the car's next message is accepted, the newest.
         let next = sealed(&mut car, &Message::Heartbeat, from_car);
         assert_eq!(host.open(from_car, &next), Ok(Message::Heartbeat));
+        assert!(host.opened_newest());
+        // Any other message overtaken on the way is accepted once, not as the newest.
+        let overtaken = sealed(&mut car, &Message::Heartbeat, from_car);
+        let overtaking = sealed(&mut car, &Message::Heartbeat, from_car);
+        assert_eq!(host.open(from_car, &overtaking), Ok(Message::Heartbeat));
+        assert!(host.opened_newest());
+        assert_eq!(host.open(from_car, &overtaken), Ok(Message::Heartbeat));
+        assert!(!host.opened_newest());
+        assert_eq!(
+            host.open(from_car, &overtaken),
+            Err(OpenError::Refused(Refusal::Replayed))
+        );
+        assert!(!host.opened_newest());
         // In order, the same welcome is accepted.
         let mut car = CarSecurity::new(&KEY, 10);
         let mut host = welcomed(&KEY, &mut car);
@@ -1218,7 +1249,9 @@ mod tests {
         let on_time = car.seal(&w, ws, &mut buf).unwrap().to_vec();
         let after = sealed(&mut car, &Message::Heartbeat, from_car);
         assert_eq!(host.open(ws, &on_time), Ok(w));
+        assert!(host.opened_newest());
         assert_eq!(host.open(from_car, &after), Ok(Message::Heartbeat));
+        assert!(host.opened_newest());
     }
 
     #[test]

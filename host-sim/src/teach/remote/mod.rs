@@ -140,6 +140,8 @@ pub struct RemoteStats {
     pub link_errors: u64,
     /// Messages from the car refused (authentication or freshness).
     pub refused: RefusalStats,
+    /// Weights reports dropped as out of date: messages the car sent after them arrived first.
+    pub out_of_date: u64,
 }
 
 /// The last learner the car reported, and where it stood.
@@ -326,7 +328,7 @@ mod tests {
     use hil_mock::transport::memory::MemoryLink;
     use protocol::car::CarConfig;
     use protocol::link::{Received, transmit};
-    use protocol::message::{ActionCommand, StopReason};
+    use protocol::message::{ActionCommand, StopReason, WeightsReport};
     use protocol::secure::CarSecurity;
     use std::sync::Arc;
     use std::sync::atomic::{AtomicBool, Ordering};
@@ -393,6 +395,89 @@ mod tests {
         walled.scan.ranges = [0.1; firmware_core::observation::SCAN_BEAMS];
         let d = remote.act(4, &walled).unwrap();
         assert_eq!((d.action, d.allowed.is_empty()), (None, true));
+        drop(remote);
+        handle.join().unwrap();
+    }
+
+    /// A car that answers the first weights request with a report of an earlier state (no
+    /// learner) which a message it sent after it overtakes on the way, as a delayed frame would;
+    /// every other request in order.
+    fn car_with_a_late_report(mut link: MemoryLink) {
+        let mut inbox = Inbox::new(Direction::HostToCar);
+        let mut sec = CarSecurity::new(&KEY, 6);
+        let mut held: Option<WeightsReport> = None;
+        let mut late_sent = false;
+        let send = |link: &mut MemoryLink, sec: &mut CarSecurity, msg: &Message| {
+            transmit(
+                &mut LinkBus(link),
+                msg,
+                Direction::CarToHost,
+                FrameMode::Fd,
+                sec,
+            )
+            .is_ok()
+        };
+        while let Ok(got) = link.recv(Duration::from_secs(5)) {
+            let Some(frame) = got else { return };
+            let status = held.map_or(CarStatus::default(), |r| r.status);
+            let ok = match inbox.feed(&frame, 0, &mut sec) {
+                Received::Message(Message::Hello(h)) => {
+                    let welcome = Message::Welcome(sec.welcome(&h, status));
+                    send(&mut link, &mut sec, &welcome)
+                }
+                Received::Message(Message::Configure(c)) => {
+                    let report = WeightsReport {
+                        status: CarStatus {
+                            session: Some(c.session),
+                            generation: 0,
+                        },
+                        snapshot: c.snapshot,
+                    };
+                    held = Some(report);
+                    send(&mut link, &mut sec, &Message::Weights(report))
+                }
+                Received::Message(Message::WeightsRequest) if !late_sent => {
+                    late_sent = true;
+                    // Sealed first, delivered after the heartbeat sealed next.
+                    let (mut into, mut out) = MemoryLink::pair();
+                    let late = Message::Weights(WeightsReport {
+                        status: CarStatus::default(),
+                        snapshot: held.unwrap().snapshot,
+                    });
+                    let mut ok = send(&mut into, &mut sec, &late);
+                    ok &= send(&mut link, &mut sec, &Message::Heartbeat);
+                    while let Ok(Some(f)) = out.recv(Duration::ZERO) {
+                        ok &= link.send(&f).is_ok();
+                    }
+                    ok
+                }
+                Received::Message(Message::WeightsRequest) => {
+                    send(&mut link, &mut sec, &Message::Weights(held.unwrap()))
+                }
+                _ => continue,
+            };
+            if !ok {
+                return;
+            }
+        }
+    }
+
+    #[test]
+    fn a_weights_report_that_a_later_message_overtook_is_not_taken_as_the_cars_state() {
+        let (host, car) = MemoryLink::pair();
+        let handle = std::thread::spawn(move || car_with_a_late_report(car));
+        let mut remote = RemoteCar::new(host, quick());
+        let learner =
+            firmware_core::Learner::new(firmware_core::LearnerParams::default().check().unwrap());
+        remote.restore(&learner.snapshot()).unwrap();
+        // Taken as the answer, the late report (no learner) would read as a car that lost it.
+        assert_eq!(remote.snapshot().unwrap(), learner.snapshot());
+        let stats = remote.stats();
+        assert_eq!(
+            (stats.out_of_date, stats.retransmissions),
+            (1, 1),
+            "{stats:?}"
+        );
         drop(remote);
         handle.join().unwrap();
     }
