@@ -480,10 +480,11 @@ impl Server {
     pub fn summary(&self) -> String {
         let s = self.node.stats();
         format!(
-            "{} observations, {} actions, {} feedback applied ({} copies, {} refused), {} stops \
-             (watchdog {}, commanded {}), refused messages {} (MAC {}, replayed {}, stale {}), \
-             {} lost, {} error reports, {} failed writes; {}",
+            "{} observations ({} late copies not acted on), {} actions, {} feedback applied ({} \
+             copies, {} refused), {} stops (watchdog {}, commanded {}), refused messages {} (MAC \
+             {}, replayed {}, stale {}), {} lost, {} error reports, {} failed writes; {}",
             s.observations,
+            s.stale_observations,
             s.actions,
             s.feedback_applied,
             s.feedback_duplicates,

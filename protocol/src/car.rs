@@ -196,6 +196,9 @@ pub struct CarStats {
     pub errors: u32,
     /// Writes of the persisted state that failed.
     pub persist_failures: u32,
+    /// Observations not acted on because a host message sent after them came first (a copy
+    /// the host retransmitted, delayed on the way): counted in `observations` too.
+    pub stale_observations: u32,
 }
 
 impl CarStats {
@@ -217,6 +220,7 @@ impl CarStats {
         },
         errors: 0,
         persist_failures: 0,
+        stale_observations: 0,
     };
 }
 
@@ -509,6 +513,19 @@ impl CarNode {
         store: &mut P,
     ) -> Result<(), B::Error> {
         match msg {
+            Message::Observation(_) if !self.security.opened_newest() => {
+                // Sent before a host message that came first: a copy the host retransmitted
+                // while it waited for the action, delayed on the way, arriving after the host
+                // moved on (it sends a tick's feedback only once it has the tick's action).
+                // Acting on it would drive on an old scan, and would replace the tick's record
+                // with the decision of a learner that the tick's own feedback may have moved
+                // since: a later feedback about the tick (a span) would then read another
+                // action than the one the car executed. Nothing is done; a host still waiting
+                // sends the observation again, and that copy is the newest.
+                bump(&mut self.stats.observations);
+                bump(&mut self.stats.stale_observations);
+                Ok(())
+            }
             Message::Observation(o) => self.on_observation(o, now_ms, bus),
             Message::Feedback(f) => self.on_feedback(f, bus, store),
             Message::Configure(c) => self.on_configure(c, bus, store),
@@ -1358,6 +1375,29 @@ mod tests {
         ));
         assert_eq!(*b.car.agent().learner(), snap, "learner kept");
         assert_eq!(b.car.stats().commanded_stops, 2);
+    }
+
+    #[test]
+    fn an_observation_a_later_host_message_overtook_is_not_acted_on() {
+        let mut b = Bench::configured();
+        assert!(matches!(b.observe(1, 0)[..], [Message::Action(_)]));
+        // A copy the host sent again while it waited, held back on the way; the host got the
+        // action meanwhile and sends the tick's feedback, which arrives first.
+        let late = Bench::frames(&observation(1), &mut b.host);
+        assert_eq!(b.send(&feedback(0, 1, 3), 1), [ack(0)]);
+        let before = b.car.stats();
+        let mut out = Vec::new();
+        for f in &late {
+            b.frames_in(f, 2, &mut out);
+        }
+        assert_eq!(out, [], "no action for the late copy");
+        let after = b.car.stats();
+        assert_eq!(after.actions, before.actions, "not acted on");
+        assert_eq!(after.stale_observations, 1);
+        assert_eq!(after.observations, before.observations + 1);
+        // The same tick observed anew (the newest message) is acted on.
+        assert!(matches!(b.observe(1, 3)[..], [Message::Action(_)]));
+        assert_eq!(b.car.stats().actions, before.actions + 1);
     }
 
     /// Issue 14, item 4: no message disarms the watchdog.

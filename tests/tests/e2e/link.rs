@@ -12,6 +12,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 use std::time::Duration;
 
+use firmware_core::FeedbackKind;
 use firmware_core::observation::Observation;
 use hil_mock::flash::{FlashStore, HEADER_SIZE, Open, PAGE_SIZE, PageStatus};
 use hil_mock::server::LinkBus;
@@ -22,6 +23,7 @@ use hil_mock::transport::record::{RecordingLink, read_log};
 use hil_mock::transport::slcan::SlcanLink;
 use hil_mock::transport::udp::UdpLink;
 use hil_mock::transport::{Link, LinkAddress};
+use host_sim::teach::config::Mode;
 use host_sim::teach::experiment::{self, CarLink, RunConfig};
 use host_sim::teach::remote::{RemoteCar, RemoteConfig};
 use protocol::car::{CarConfig, Persisted};
@@ -151,50 +153,68 @@ fn faults_both_ways_lose_no_feedback_and_apply_none_twice() {
     }
 }
 
-/// Frames held back behind later ones, often, both ways: answers arrive after what the car sent
-/// after them (a welcome behind acks, a weights report behind a heartbeat). The host must read
-/// the car's state only from the newest (`HostSecurity::opened_newest`); taking a late welcome's
-/// status as current stopped runs as "the car lost what it was taught" (with that check and the
-/// weights report's drop taken out, this test failed 12 runs of 12; with them, 30 of 30 passed,
-/// each refusing 42 to 83 out-of-date or unanswered welcomes).
+/// Frames held back behind later ones, often, both ways: messages arrive after what their
+/// sender sent after them. The host must read the car's state only from the newest car message
+/// (`HostSecurity::opened_newest`): taking a late welcome's status as current stopped runs as
+/// "the car lost what it was taught". The car must not act on an observation that a later host
+/// message overtook (`CarStats::stale_observations`): a late copy of a tick's observation,
+/// acted on after the tick's feedback, replaced the tick's record with another learner's
+/// decision, and a span feedback about it then taught the car something else than the run in
+/// process (with action feedback, 12 runs of 12 failed without the host's two rules; with span
+/// feedback, 5 of 5 without the car's, the per-step CSV differing; with all three, 8 of 8 passed
+/// in both modes).
 #[test]
-fn frames_held_back_behind_later_ones_stop_no_run_and_apply_no_feedback_twice() {
-    let config = config(800);
-    let local = experiment::run(&config).unwrap();
-    let held_back = |seed| FaultConfig {
-        drop: 0.05,
-        corrupt: 0.0,
-        duplicate: 0.02,
-        reorder: 0.2,
-        delay: 0.3,
-        max_delay: Duration::from_millis(8),
-        seed,
-    };
-    let (host, car_end) = MemoryLink::pair();
-    let server = ServerThread::spawn(
-        move || FaultyLink::new(car_end, held_back(3)),
-        car(FrameMode::Fd),
-    );
-    let mut remote = RemoteCar::new(
-        FaultyLink::new(host, held_back(4)),
-        RemoteConfig {
-            try_timeout: Duration::from_millis(1),
-            ..remote_config(FrameMode::Fd)
-        },
-    );
-    let report = experiment::run_with(&config, &mut remote, &mut |_| {}).unwrap();
-    let faults = remote.link().stats();
-    let remote_stats = remote.stats();
-    drop(remote);
-    let stats = server.stop();
-    eprintln!("{remote_stats:?}, {stats:?}, {faults:?}");
-    assert_same(&local, &report, "memory, frames held back");
-    assert_eq!(stats.feedback_applied, local.corrections());
-    assert_eq!(remote_stats.feedback_acked, local.corrections() as u64);
-    assert!(faults.reordered > 50 && faults.delayed > 50, "{faults:?}");
-    assert!(remote_stats.hellos > 1, "{remote_stats:?}");
-    // Late welcomes were met, and refused.
-    assert!(remote_stats.refused.stale > 0, "{remote_stats:?}");
+fn frames_held_back_behind_later_ones_stop_no_run_and_change_nothing_learned() {
+    for mode in [
+        Mode::Online(FeedbackKind::Action),
+        Mode::Online(FeedbackKind::Span),
+    ] {
+        let config = RunConfig {
+            mode,
+            ..config(800)
+        };
+        let local = experiment::run(&config).unwrap();
+        let held_back = |seed| FaultConfig {
+            drop: 0.05,
+            corrupt: 0.0,
+            duplicate: 0.02,
+            reorder: 0.2,
+            delay: 0.3,
+            max_delay: Duration::from_millis(8),
+            seed,
+        };
+        let (host, car_end) = MemoryLink::pair();
+        let server = ServerThread::spawn(
+            move || FaultyLink::new(car_end, held_back(3)),
+            car(FrameMode::Fd),
+        );
+        let mut remote = RemoteCar::new(
+            FaultyLink::new(host, held_back(4)),
+            RemoteConfig {
+                try_timeout: Duration::from_millis(1),
+                ..remote_config(FrameMode::Fd)
+            },
+        );
+        let report = experiment::run_with(&config, &mut remote, &mut |_| {}).unwrap();
+        let faults = remote.link().stats();
+        let remote_stats = remote.stats();
+        drop(remote);
+        let stats = server.stop();
+        let what = mode.name();
+        eprintln!("{what}: {remote_stats:?}, {stats:?}, {faults:?}");
+        assert_same(
+            &local,
+            &report,
+            &format!("memory, frames held back, {what}"),
+        );
+        assert_eq!(stats.feedback_applied, local.corrections(), "{what}");
+        assert_eq!(remote_stats.feedback_acked, local.corrections() as u64);
+        assert!(faults.reordered > 50 && faults.delayed > 50, "{faults:?}");
+        assert!(remote_stats.hellos > 1, "{remote_stats:?}");
+        // Late welcomes and late observations were met, and neither was taken.
+        assert!(remote_stats.refused.stale > 0, "{remote_stats:?}");
+        assert!(stats.stale_observations > 0, "{stats:?}");
+    }
 }
 
 #[test]
