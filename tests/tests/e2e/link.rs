@@ -25,6 +25,7 @@ use hil_mock::transport::udp::UdpLink;
 use hil_mock::transport::{Link, LinkAddress};
 use host_sim::teach::config::Mode;
 use host_sim::teach::experiment::{self, CarLink, RunConfig};
+use host_sim::teach::kinds::Mix;
 use host_sim::teach::remote::{RemoteCar, RemoteConfig};
 use protocol::car::{CarConfig, Persisted};
 use protocol::isotp::FrameMode;
@@ -162,12 +163,14 @@ fn faults_both_ways_lose_no_feedback_and_apply_none_twice() {
 /// decision, and a span feedback about it then taught the car something else than the run in
 /// process (with action feedback, 12 runs of 12 failed without the host's two rules; with span
 /// feedback, 5 of 5 without the car's, the per-step CSV differing; with all three, 8 of 8 passed
-/// in both modes).
+/// in both modes). Every kind in turn (`mix:all`) runs too.
 #[test]
 fn frames_held_back_behind_later_ones_stop_no_run_and_change_nothing_learned() {
+    // Action feedback; span feedback, which reads a tick's record again later; every kind in turn.
     for mode in [
         Mode::Online(FeedbackKind::Action),
         Mode::Online(FeedbackKind::Span),
+        Mode::Mix(Mix::ALL),
     ] {
         let config = RunConfig {
             mode,
