@@ -16,7 +16,7 @@ use firmware_core::FeedbackKind;
 use firmware_core::observation::Observation;
 use hil_mock::flash::{FlashStore, HEADER_SIZE, Open, PAGE_SIZE, PageStatus};
 use hil_mock::server::LinkBus;
-use hil_mock::transport::fault::{FaultConfig, FaultyLink};
+use hil_mock::transport::fault::{FaultConfig, FaultStats, FaultyLink};
 use hil_mock::transport::memory::MemoryLink;
 use hil_mock::transport::reconnect::ReconnectingLink;
 use hil_mock::transport::record::{RecordingLink, read_log};
@@ -26,8 +26,9 @@ use hil_mock::transport::{Link, LinkAddress};
 use host_sim::teach::config::Mode;
 use host_sim::teach::experiment::{self, CarLink, RunConfig};
 use host_sim::teach::kinds::Mix;
-use host_sim::teach::remote::{RemoteCar, RemoteConfig};
-use protocol::car::{CarConfig, Persisted};
+use host_sim::teach::record::RunReport;
+use host_sim::teach::remote::{RemoteCar, RemoteConfig, RemoteStats};
+use protocol::car::{CarConfig, CarStats, Persisted};
 use protocol::isotp::FrameMode;
 use protocol::link::{Inbox, Received, transmit};
 use protocol::message::{ActionCommand, ConfigureMessage, Message, ObservationMessage, StopReason};
@@ -101,6 +102,60 @@ fn hostile(seed: u64) -> FaultConfig {
     }
 }
 
+/// Frames held back often, behind later ones: 30 % delayed up to 8 ms, 20 % reordered.
+fn held_back(seed: u64) -> FaultConfig {
+    FaultConfig {
+        drop: 0.05,
+        corrupt: 0.0,
+        duplicate: 0.02,
+        reorder: 0.2,
+        delay: 0.3,
+        max_delay: Duration::from_millis(8),
+        seed,
+    }
+}
+
+/// What a run through injected faults gives: its report, the faults on the host's side, the
+/// host's and the car's counters.
+struct FaultyRun {
+    report: RunReport,
+    faults: FaultStats,
+    remote: RemoteStats,
+    car: CarStats,
+}
+
+/// Runs `config` on a car node served on `car_end` from a host on `host`, `faults` injected
+/// both ways (seeded `car_seed` on the car's side, `host_seed` on the host's), FD frames, one
+/// try a millisecond.
+fn run_through_faults<L: Link + Send + 'static>(
+    config: &RunConfig,
+    (host, car_end): (L, L),
+    faults: fn(u64) -> FaultConfig,
+    (car_seed, host_seed): (u64, u64),
+) -> FaultyRun {
+    let server = ServerThread::spawn(
+        move || FaultyLink::new(car_end, faults(car_seed)),
+        car(FrameMode::Fd),
+    );
+    let mut remote = RemoteCar::new(
+        FaultyLink::new(host, faults(host_seed)),
+        RemoteConfig {
+            try_timeout: Duration::from_millis(1),
+            ..remote_config(FrameMode::Fd)
+        },
+    );
+    let report = experiment::run_with(config, &mut remote, &mut |_| {}).unwrap();
+    let faults = remote.link().stats();
+    let remote_stats = remote.stats();
+    drop(remote);
+    FaultyRun {
+        report,
+        faults,
+        remote: remote_stats,
+        car: server.stop(),
+    }
+}
+
 #[test]
 fn faults_both_ways_lose_no_feedback_and_apply_none_twice() {
     let config = config(800);
@@ -116,23 +171,13 @@ fn faults_both_ways_lose_no_feedback_and_apply_none_twice() {
                 (Box::new(h), Box::new(c))
             }
         };
-        let server = ServerThread::spawn(
-            move || FaultyLink::new(car_end, hostile(1)),
-            car(FrameMode::Fd),
-        );
         let started = std::time::Instant::now();
-        let mut remote = RemoteCar::new(
-            FaultyLink::new(host, hostile(2)),
-            RemoteConfig {
-                try_timeout: Duration::from_millis(1),
-                ..remote_config(FrameMode::Fd)
-            },
-        );
-        let report = experiment::run_with(&config, &mut remote, &mut |_| {}).unwrap();
-        let faults = remote.link().stats();
-        let remote_stats = remote.stats();
-        drop(remote);
-        let stats = server.stop();
+        let FaultyRun {
+            report,
+            faults,
+            remote: remote_stats,
+            car: stats,
+        } = run_through_faults(&config, (host, car_end), hostile, (1, 2));
         eprintln!(
             "{transport}: {:.1} s, {remote_stats:?}, {stats:?}, {faults:?}",
             started.elapsed().as_secs_f64()
@@ -177,32 +222,12 @@ fn frames_held_back_behind_later_ones_stop_no_run_and_change_nothing_learned() {
             ..config(800)
         };
         let local = experiment::run(&config).unwrap();
-        let held_back = |seed| FaultConfig {
-            drop: 0.05,
-            corrupt: 0.0,
-            duplicate: 0.02,
-            reorder: 0.2,
-            delay: 0.3,
-            max_delay: Duration::from_millis(8),
-            seed,
-        };
-        let (host, car_end) = MemoryLink::pair();
-        let server = ServerThread::spawn(
-            move || FaultyLink::new(car_end, held_back(3)),
-            car(FrameMode::Fd),
-        );
-        let mut remote = RemoteCar::new(
-            FaultyLink::new(host, held_back(4)),
-            RemoteConfig {
-                try_timeout: Duration::from_millis(1),
-                ..remote_config(FrameMode::Fd)
-            },
-        );
-        let report = experiment::run_with(&config, &mut remote, &mut |_| {}).unwrap();
-        let faults = remote.link().stats();
-        let remote_stats = remote.stats();
-        drop(remote);
-        let stats = server.stop();
+        let FaultyRun {
+            report,
+            faults,
+            remote: remote_stats,
+            car: stats,
+        } = run_through_faults(&config, MemoryLink::pair(), held_back, (3, 4));
         let what = mode.name();
         eprintln!("{what}: {remote_stats:?}, {stats:?}, {faults:?}");
         assert_same(
