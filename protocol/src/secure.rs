@@ -39,7 +39,8 @@
 //! car's), so it can be replayed: its only effect is a welcome, and moving the car's window
 //! forward to a counter the host really reached. The welcome is fresh because it repeats the
 //! nonce, and current because no newer message of the car in its epoch came before it (one
-//! that such messages overtook says what the car held before them, and is refused). A car that restarts takes a new epoch, so nothing recorded before its restart is
+//! that such messages overtook says what the car held before them, and is refused). A car
+//! that restarts takes a new epoch, so nothing recorded before its restart is
 //! accepted after it, and the host notices the restart: its messages go unanswered until it says
 //! hello again, and the welcome carries the new epoch and what the car holds.
 //!
