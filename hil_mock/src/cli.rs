@@ -251,14 +251,29 @@ fn run(command: Command) -> Result<()> {
             if link != "udp" {
                 bail!("bench-latency measures udp only, got --link {link}");
             }
-            if count == 0 {
-                bail!("--count must be at least 1");
+            if count < 2 {
+                bail!("--count must be at least 2 (the first round trip follows the ping-pongs)");
             }
             let r = bench_latency(count)?;
+            let idle = count.div_ceil(BENCH_BLOCK);
             say(format_args!(
-                "{} observation → action round trips over UDP loopback (CAN FD frames, {} per observation): \
-                 p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
-                r.count, r.frames_per_observation, r.link.p50_us, r.link.p99_us, r.link.max_us
+                "{} observation → action round trips over UDP loopback (CAN FD frames, {} per observation), \
+                 back to back: p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
+                count - idle,
+                r.frames_per_observation,
+                r.link.p50_us,
+                r.link.p99_us,
+                r.link.max_us
+            ))?;
+            say(format_args!(
+                "{idle} after a block of ping-pongs (the car's server asleep, woken by the \
+                 observation): p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs; all {count} together: \
+                 p50 {:.0} µs, p99 {:.0} µs",
+                r.after_idle.p50_us,
+                r.after_idle.p99_us,
+                r.after_idle.max_us,
+                r.all.p50_us,
+                r.all.p99_us
             ))?;
             say(format_args!(
                 "{} plain UDP ping-pongs of {PING_BYTES} bytes on the same loopback, interleaved: \
@@ -393,8 +408,15 @@ pub struct Latency {
     pub count: u32,
     /// CAN FD frames per observation.
     pub frames_per_observation: usize,
-    /// Observation → action through the car's server.
+    /// Observation → action through the car's server, back to back: the round trips that
+    /// followed another (the link within its busy poll, [`crate::transport::udp`]).
     pub link: RoundTrips,
+    /// The other round trips: the first after each block of ping-pongs (one in
+    /// [`BENCH_BLOCK`]), the link idle longer than its busy poll, so that the car's server was
+    /// asleep and the observation had to wake it, as in a car driven at a real tick rate.
+    pub after_idle: RoundTrips,
+    /// Every round trip measured (`link` and `after_idle` together).
+    pub all: RoundTrips,
     /// The floor: a plain UDP ping-pong of one datagram of [`PING_BYTES`] each way between two
     /// blocking sockets on the same loopback, measured interleaved with `link`.
     pub ping: RoundTrips,
@@ -404,13 +426,16 @@ pub struct Latency {
 pub const PING_BYTES: usize = crate::transport::udp::HEADER_LEN + 6 + 64;
 
 /// Round trips of each kind measured in turn, so that both see the same load.
-const BENCH_BLOCK: u32 = 100;
+pub const BENCH_BLOCK: u32 = 100;
 
 /// Starts a server thread on UDP 127.0.0.1 (ephemeral port) and measures `count` observation →
 /// action round trips (after 100 unmeasured ones), CAN FD frames both ways; and, interleaved
 /// with them in blocks of 100, `count` round trips of a plain UDP ping-pong on the same loopback
 /// (an echo thread), the floor any UDP transport stands on.
 pub fn bench_latency(count: u32) -> Result<Latency> {
+    if count < 2 {
+        bail!("bench_latency: at least 2 round trips (the first follows the ping-pongs)");
+    }
     let mut car_link = UdpLink::listen(SocketAddrV4::new(std::net::Ipv4Addr::LOCALHOST, 0))?;
     let SocketAddr::V4(car_addr) = car_link.local_addr()? else {
         bail!("udp bound to a non-IPv4 address");
@@ -458,6 +483,8 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
         }
     }
     let mut samples = Vec::with_capacity(count as usize);
+    let mut after_idle = Vec::new();
+    let mut all = Vec::with_capacity(count as usize);
     let mut floor = Vec::with_capacity(count as usize);
     let mut frames_per_observation = 0;
     let warmup = 100;
@@ -501,7 +528,13 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
             }
         }
         if tick >= warmup {
-            samples.push(t0.elapsed().as_secs_f64() * 1e6);
+            let us = t0.elapsed().as_secs_f64() * 1e6;
+            all.push(us);
+            if tick % BENCH_BLOCK == 0 {
+                after_idle.push(us);
+            } else {
+                samples.push(us);
+            }
         }
     }
     stop.store(true, Ordering::Relaxed);
@@ -515,6 +548,8 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
         count,
         frames_per_observation,
         link: RoundTrips::of(&mut samples),
+        after_idle: RoundTrips::of(&mut after_idle),
+        all: RoundTrips::of(&mut all),
         ping: RoundTrips::of(&mut floor),
     })
 }
@@ -693,8 +728,11 @@ mod tests {
         let r = bench_latency(50).unwrap();
         assert_eq!(r.count, 50);
         assert!(r.frames_per_observation >= 2, "{r:?}");
-        for t in [r.link, r.ping] {
+        for t in [r.link, r.after_idle, r.all, r.ping] {
             assert!(t.p50_us <= t.p99_us && t.p99_us <= t.max_us, "{r:?}");
         }
+        // The first measured round trip follows the first block of ping-pongs.
+        assert!(r.after_idle.max_us <= r.all.max_us && r.link.max_us <= r.all.max_us);
+        assert!(bench_latency(1).is_err());
     }
 }

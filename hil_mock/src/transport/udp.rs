@@ -16,9 +16,18 @@
 //! followed by a `flags` byte: 0x01 bit-rate switch, 0x04 FD frame), and the payload.
 //!
 //! This link sends one frame per packet (no batching delay), and takes a packet the moment it
-//! arrives: its socket never blocks, and `recv` waits for the next datagram in `poll(2)` with the
-//! time left (a timeout ends on the kernel's high-resolution timer, within its 50 µs slack). Remote and error frames received are
-//! skipped; a packet that is truncated or inconsistent is reported as malformed and dropped whole.
+//! arrives: its socket never blocks. Within [`DEFAULT_BUSY_POLL`] of its last send or receive (an
+//! exchange under way: the answer to what it just sent, the next frame of a message, the next
+//! tick of a host driving it back to back) `recv` polls the socket without sleeping; after that
+//! it waits for the next datagram in `poll(2)` with the time left (a timeout ends on the kernel's
+//! high-resolution timer, within its 50 µs slack). The busy poll is for the wake-up: a thread
+//! asleep in `poll` is woken by the sender's kernel, which on this machine's virtual CPUs costs
+//! several times the datagram's own trip (issue 17: the round trip's p50 went 64–86 → 14 µs,
+//! README "Benchmarks"). A link left idle longer than that sleeps, so an idle car or host takes
+//! no CPU time; [`UdpLink::set_busy_poll`] changes it ([`Duration::ZERO`]: never).
+//!
+//! Remote and error frames received are skipped; a packet that is truncated or inconsistent is
+//! reported as malformed and dropped whole.
 //!
 //! **Whom a listening link answers.** Anyone on 127.0.0.1 can send it a datagram. A listening
 //! link answers only the sender of the last packet that completed an authenticated message with
@@ -51,6 +60,10 @@ const ERR_FLAG: u32 = 0x2000_0000;
 const FD_LEN_FLAG: u8 = 0x80;
 const CANFD_BRS: u8 = 0x01;
 const CANFD_FDF: u8 = 0x04;
+
+/// How long after its last send or receive a link polls its socket without sleeping (see the
+/// module documentation).
+pub const DEFAULT_BUSY_POLL: Duration = Duration::from_micros(50);
 
 /// Largest datagram read (cannelloni's default MTU-sized packets fit with room to spare).
 const MAX_DATAGRAM: usize = 2048;
@@ -200,6 +213,10 @@ pub struct UdpLink {
     buf: Vec<u8>,
     /// The packet being sent.
     out: Vec<u8>,
+    /// How long after `active` `recv` polls without sleeping.
+    busy_poll: Duration,
+    /// The last send or receive of a datagram.
+    active: Instant,
     /// The frames of the packet received last.
     decoded: Vec<CanFrame>,
 }
@@ -242,8 +259,18 @@ impl UdpLink {
             unanswered: 0,
             buf: vec![0; MAX_DATAGRAM],
             out: Vec::with_capacity(HEADER_LEN + 6 + 64),
+            busy_poll: DEFAULT_BUSY_POLL,
+            active: Instant::now(),
             decoded: Vec::new(),
         })
+    }
+
+    /// How long after its last send or receive `recv` polls the socket without sleeping
+    /// ([`DEFAULT_BUSY_POLL`] unless set; [`Duration::ZERO`] turns it off). A longer one keeps
+    /// the answers to a slower peer off the wake-up path, at the cost of a core for that long
+    /// after every exchange.
+    pub fn set_busy_poll(&mut self, busy_poll: Duration) {
+        self.busy_poll = busy_poll;
     }
 
     /// The address answers go to (listening: the sender of the last authenticated message).
@@ -281,6 +308,7 @@ impl Link for UdpLink {
             };
             self.socket.send_to(&self.out, peer)
         };
+        self.active = Instant::now();
         result.map(|_| ()).map_err(|e| LinkError::io("udp send", e))
     }
 
@@ -303,15 +331,22 @@ impl Link for UdpLink {
             };
             match got {
                 Ok((n, from)) => {
+                    self.active = Instant::now();
                     self.decoded.clear();
                     decode_packet(&self.buf[..n], &mut self.decoded)?;
                     self.pending
                         .extend(self.decoded.drain(..).map(|f| (f, from)));
                 }
                 Err(e) if e.kind() == ErrorKind::WouldBlock => {
-                    let left = timeout.saturating_sub(start.elapsed());
+                    let now = Instant::now();
+                    let left = timeout.saturating_sub(now - start);
                     if left.is_zero() {
                         return Ok(None);
+                    }
+                    // An exchange under way: read again rather than sleep (module docs).
+                    if now < self.active + self.busy_poll {
+                        std::hint::spin_loop();
+                        continue;
                     }
                     wait_readable(&self.socket, left)?;
                 }
