@@ -16,15 +16,20 @@
 //! followed by a `flags` byte: 0x01 bit-rate switch, 0x04 FD frame), and the payload.
 //!
 //! This link sends one frame per packet (no batching delay), and takes a packet the moment it
-//! arrives: its socket never blocks. Within [`DEFAULT_BUSY_POLL`] of its last send or receive (an
+//! arrives: its socket never blocks. Within a busy-poll window of its last send or receive (an
 //! exchange under way: the answer to what it just sent, the next frame of a message, the next
-//! tick of a host driving it back to back) `recv` polls the socket without sleeping; after that
-//! it waits for the next datagram in `poll(2)` with the time left (a timeout ends on the kernel's
-//! high-resolution timer, within its 50 µs slack). The busy poll is for the wake-up: a thread
-//! asleep in `poll` is woken by the sender's kernel, which on this machine's virtual CPUs costs
-//! several times the datagram's own trip (issue 17: the round trip's p50 went 64–86 → 14 µs,
-//! README "Benchmarks"). A link left idle longer than that sleeps, so an idle car or host takes
-//! no CPU time; [`UdpLink::set_busy_poll`] changes it ([`Duration::ZERO`]: never).
+//! tick of a host driving it back to back) `recv` reads the socket again without sleeping; after
+//! that it waits for the next datagram in `poll(2)` with the time left (a timeout ends on the
+//! kernel's high-resolution timer, within its 50 µs slack). The busy poll is for the wake-up: a
+//! thread asleep in `poll` is woken by the sender's kernel, which on this machine's virtual CPUs
+//! costs several times the datagram's own trip (issue 17: back to back, the round trip's p50 went
+//! 78–90 → 15 µs, README "Benchmarks"). The window adapts, as the kernel's halt polling does: a
+//! datagram that came after the link went to sleep, but within [`DEFAULT_BUSY_POLL`] of its last
+//! exchange, doubles it (a longer poll would have caught it), up to that limit; one that came
+//! later halves it, down to nothing. So a link whose peer answers at once keeps polling, and a
+//! link whose answers come late (a car at a real tick rate, a machine whose cores are busy, where
+//! polling would only keep the peer from a core) soon sleeps at once, as without it. An idle link
+//! takes no CPU time. [`UdpLink::set_busy_poll`] sets the limit ([`Duration::ZERO`]: never).
 //!
 //! Remote and error frames received are skipped; a packet that is truncated or inconsistent is
 //! reported as malformed and dropped whole.
@@ -61,9 +66,12 @@ const FD_LEN_FLAG: u8 = 0x80;
 const CANFD_BRS: u8 = 0x01;
 const CANFD_FDF: u8 = 0x04;
 
-/// How long after its last send or receive a link polls its socket without sleeping (see the
+/// The longest a link polls its socket without sleeping after its last send or receive (see the
 /// module documentation).
 pub const DEFAULT_BUSY_POLL: Duration = Duration::from_micros(50);
+
+/// The window a busy poll grows from when it had shrunk to nothing.
+const MIN_BUSY_POLL: Duration = Duration::from_micros(5);
 
 /// Largest datagram read (cannelloni's default MTU-sized packets fit with room to spare).
 const MAX_DATAGRAM: usize = 2048;
@@ -213,8 +221,10 @@ pub struct UdpLink {
     buf: Vec<u8>,
     /// The packet being sent.
     out: Vec<u8>,
-    /// How long after `active` `recv` polls without sleeping.
+    /// The busy poll's limit.
     busy_poll: Duration,
+    /// How long after `active` `recv` polls without sleeping now (adapted, at most `busy_poll`).
+    window: Duration,
     /// The last send or receive of a datagram.
     active: Instant,
     /// The frames of the packet received last.
@@ -260,17 +270,36 @@ impl UdpLink {
             buf: vec![0; MAX_DATAGRAM],
             out: Vec::with_capacity(HEADER_LEN + 6 + 64),
             busy_poll: DEFAULT_BUSY_POLL,
+            window: DEFAULT_BUSY_POLL,
             active: Instant::now(),
             decoded: Vec::new(),
         })
     }
 
-    /// How long after its last send or receive `recv` polls the socket without sleeping
-    /// ([`DEFAULT_BUSY_POLL`] unless set; [`Duration::ZERO`] turns it off). A longer one keeps
-    /// the answers to a slower peer off the wake-up path, at the cost of a core for that long
-    /// after every exchange.
+    /// The longest `recv` polls the socket without sleeping after the link's last send or
+    /// receive ([`DEFAULT_BUSY_POLL`] unless set; [`Duration::ZERO`] turns it off). The window
+    /// adapts below it (module documentation); setting it starts the window at the limit.
     pub fn set_busy_poll(&mut self, busy_poll: Duration) {
         self.busy_poll = busy_poll;
+        self.window = busy_poll;
+    }
+
+    /// The busy poll's window now (at most the limit [`UdpLink::set_busy_poll`] set).
+    pub fn busy_poll_window(&self) -> Duration {
+        self.window
+    }
+
+    /// A datagram came `gap` after the link's last exchange, while it slept: a longer window
+    /// would have caught it if `gap` is within the limit (double the window), else no window
+    /// would have (halve it).
+    fn adapt(&mut self, gap: Duration) {
+        self.window = if gap <= self.busy_poll {
+            (self.window * 2).max(MIN_BUSY_POLL).min(self.busy_poll)
+        } else if self.window > MIN_BUSY_POLL {
+            self.window / 2
+        } else {
+            Duration::ZERO
+        };
     }
 
     /// The address answers go to (listening: the sender of the last authenticated message).
@@ -317,6 +346,7 @@ impl Link for UdpLink {
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         self.answer_to = None;
         let start = Instant::now();
+        let mut slept = false;
         loop {
             if let Some((f, from)) = self.pending.pop_front() {
                 self.last_from = from;
@@ -331,7 +361,11 @@ impl Link for UdpLink {
             };
             match got {
                 Ok((n, from)) => {
-                    self.active = Instant::now();
+                    let now = Instant::now();
+                    if slept {
+                        self.adapt(now - self.active);
+                    }
+                    self.active = now;
                     self.decoded.clear();
                     decode_packet(&self.buf[..n], &mut self.decoded)?;
                     self.pending
@@ -344,10 +378,11 @@ impl Link for UdpLink {
                         return Ok(None);
                     }
                     // An exchange under way: read again rather than sleep (module docs).
-                    if now < self.active + self.busy_poll {
+                    if now < self.active + self.window {
                         std::hint::spin_loop();
                         continue;
                     }
+                    slept = true;
                     wait_readable(&self.socket, left)?;
                 }
                 // A previous send to a closed port on loopback comes back as ECONNREFUSED (once;
@@ -388,6 +423,32 @@ mod tests {
             CanFrame::new(CanId::extended(0x1ABC_DEF0).unwrap(), &[]).unwrap(),
             CanFrame::new_fd(CanId::standard(0x7FF).unwrap(), &[7; 12]).unwrap(),
         ]
+    }
+
+    /// The busy poll's window: halved by each datagram that came later than the limit, down to
+    /// nothing; doubled by each that came within it after the link slept, up to the limit.
+    #[test]
+    fn the_busy_poll_window_adapts_within_its_limit() {
+        let mut link = UdpLink::listen("127.0.0.1:0".parse().unwrap()).unwrap();
+        let limit = DEFAULT_BUSY_POLL;
+        assert_eq!(link.busy_poll_window(), limit);
+        let late = limit + Duration::from_micros(1);
+        let mut windows = Vec::new();
+        for _ in 0..6 {
+            link.adapt(late);
+            windows.push(link.busy_poll_window().as_micros());
+        }
+        assert_eq!(windows, [25, 12, 6, 3, 0, 0]);
+        windows.clear();
+        for _ in 0..6 {
+            link.adapt(limit);
+            windows.push(link.busy_poll_window().as_micros());
+        }
+        assert_eq!(windows, [5, 10, 20, 40, 50, 50]);
+        link.set_busy_poll(Duration::ZERO);
+        link.adapt(Duration::ZERO);
+        link.adapt(Duration::from_micros(1));
+        assert_eq!(link.busy_poll_window(), Duration::ZERO, "off stays off");
     }
 
     #[test]
