@@ -41,7 +41,7 @@ use protocol::secure::HostSecurity;
 
 use crate::flash::Open;
 use crate::key;
-use crate::server::{LinkBus, Server, StartState, fresh_learner};
+use crate::server::{BatchBus, LinkBus, Server, StartState, fresh_learner};
 use crate::transport::fault::{FaultConfig, FaultyLink};
 use crate::transport::record::{RecordingLink, read_log, replay};
 use crate::transport::slcan::{DEFAULT_IDLE_TIMEOUT, SlcanListener};
@@ -505,14 +505,16 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
             observation: obs,
         });
         let t0 = Instant::now();
+        let mut bus = BatchBus::new(&mut host);
         frames_per_observation = transmit(
-            &mut LinkBus(&mut host),
+            &mut bus,
             &msg,
             Direction::HostToCar,
             FrameMode::Fd,
             &mut sec,
         )
         .map_err(|e| anyhow::anyhow!("send: {e}"))?;
+        bus.flush()?;
         let deadline = t0 + Duration::from_secs(5);
         loop {
             let left = deadline.saturating_duration_since(Instant::now());

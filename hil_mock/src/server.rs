@@ -48,6 +48,53 @@ impl<L: Link + ?Sized> CanBus for LinkBus<'_, L> {
     }
 }
 
+/// A [`Link`] seen as the protocol's [`CanBus`] that holds the frames transmitted until
+/// [`BatchBus::flush`] sends them together ([`Link::send_all`]: on UDP, the frames of a message
+/// in one packet). Receiving and [`CanBus::authenticated`] go to the link at once.
+#[derive(Debug)]
+pub struct BatchBus<'a, L: Link + ?Sized> {
+    link: &'a mut L,
+    frames: Vec<CanFrame>,
+}
+
+impl<'a, L: Link + ?Sized> BatchBus<'a, L> {
+    /// A bus holding nothing yet.
+    pub fn new(link: &'a mut L) -> Self {
+        Self {
+            link,
+            frames: Vec::new(),
+        }
+    }
+
+    /// Sends what was transmitted since the last flush, in order; holds nothing after it,
+    /// whatever the result.
+    pub fn flush(&mut self) -> Result<(), LinkError> {
+        if self.frames.is_empty() {
+            return Ok(());
+        }
+        let result = self.link.send_all(&self.frames);
+        self.frames.clear();
+        result
+    }
+}
+
+impl<L: Link + ?Sized> CanBus for BatchBus<'_, L> {
+    type Error = LinkError;
+
+    fn transmit(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
+        self.frames.push(*frame);
+        Ok(())
+    }
+
+    fn receive(&mut self) -> Result<Option<CanFrame>, LinkError> {
+        self.link.recv(Duration::ZERO)
+    }
+
+    fn authenticated(&mut self, fresh: bool) {
+        self.link.authenticated(fresh)
+    }
+}
+
 /// Where the server persists: a flash file, or RAM (lost when the process ends).
 #[derive(Debug)]
 pub enum Store {
@@ -435,20 +482,25 @@ impl Server {
             }
             Err(e) => return Err(e),
         };
+        // Each answer's frames leave together (one packet on UDP).
         if let Some(frame) = got {
             let now = self.now_ms();
-            let sent = self
-                .node
-                .on_frame(&frame, now, &mut LinkBus(link), &mut self.store);
-            match self.transient(sent)? {
+            let mut bus = BatchBus::new(&mut *link);
+            let handled = self.node.on_frame(&frame, now, &mut bus, &mut self.store);
+            let sent = bus.flush();
+            match self.transient(handled)? {
                 Some(Outcome::Lost) => self.report(Problem::Lost),
                 Some(Outcome::Refused(r)) => self.report(Problem::Refused(r)),
                 _ => {}
             }
+            self.transient(sent)?;
         }
         let now = self.now_ms();
-        let polled = self.node.poll(now, &mut LinkBus(link));
+        let mut bus = BatchBus::new(&mut *link);
+        let polled = self.node.poll(now, &mut bus);
+        let sent = bus.flush();
         self.transient(polled)?;
+        self.transient(sent)?;
         if let Some(line) = self.reports.summary(Instant::now()) {
             eprintln!("hil_mock: {line}");
         }
@@ -522,6 +574,36 @@ mod tests {
     use std::sync::Arc;
 
     const KEY: Key = Key::new([9; 16]);
+
+    /// A batch bus holds what is transmitted until it is flushed, then sends it in order; it
+    /// receives from the link at once.
+    #[test]
+    fn a_batch_bus_sends_on_flush_in_order() {
+        let (mut a, mut b) = MemoryLink::pair();
+        let id = protocol::can::CanId::standard(0x10).unwrap();
+        let frames: Vec<CanFrame> = (0..3u8).map(|i| CanFrame::new(id, &[i]).unwrap()).collect();
+        b.send(&frames[2]).unwrap();
+        let mut bus = BatchBus::new(&mut a);
+        for f in &frames {
+            bus.transmit(f).unwrap();
+        }
+        assert_eq!(bus.receive().unwrap(), Some(frames[2]));
+        assert_eq!(
+            b.recv(Duration::ZERO).unwrap(),
+            None,
+            "nothing before the flush"
+        );
+        bus.flush().unwrap();
+        bus.flush().unwrap();
+        for f in &frames {
+            assert_eq!(b.recv(Duration::from_secs(1)).unwrap(), Some(*f));
+        }
+        assert_eq!(
+            b.recv(Duration::ZERO).unwrap(),
+            None,
+            "each frame sent once"
+        );
+    }
 
     #[test]
     fn a_server_thread_answers_observations_over_a_memory_link() {

@@ -91,6 +91,14 @@ pub trait Link: Send {
     /// Sends one frame.
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError>;
 
+    /// Sends `frames` in order, together where the transport can: UDP puts them in one
+    /// cannelloni packet (fewer system calls and wake-ups for the frames of one message). By
+    /// default one [`Link::send`] each, so a link that acts per frame (faults, records) still
+    /// does. On an error, the frames before it may have been sent.
+    fn send_all(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        frames.iter().try_for_each(|f| self.send(f))
+    }
+
     /// Waits up to `timeout` for one frame; `Ok(None)` when none came.
     ///
     /// A malformed packet from the peer is reported as [`LinkError::Malformed`] and skipped:
@@ -112,6 +120,9 @@ pub trait Link: Send {
 impl<L: Link + ?Sized> Link for Box<L> {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
         (**self).send(frame)
+    }
+    fn send_all(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        (**self).send_all(frames)
     }
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         (**self).recv(timeout)

@@ -103,6 +103,19 @@ impl Link for ReconnectingLink {
         }
     }
 
+    fn send_all(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        let Some(link) = self.connection() else {
+            return Ok(());
+        };
+        match link.send_all(frames) {
+            Err(e) if Self::is_lost(&e) => {
+                self.lose(&e);
+                Ok(())
+            }
+            r => r,
+        }
+    }
+
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         let Some(link) = self.connection() else {
             std::thread::sleep(timeout.min(RECONNECT_INTERVAL));

@@ -207,6 +207,11 @@ impl<L: Link> Link for RecordingLink<L> {
         self.write(frame)
     }
 
+    fn send_all(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        self.inner.send_all(frames)?;
+        frames.iter().try_for_each(|f| self.write(f))
+    }
+
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         let got = self.inner.recv(timeout)?;
         if let Some(f) = &got {

@@ -15,21 +15,23 @@
 //! bit 29 = error frame), `len` (the payload length; bit 7 set marks a CAN FD frame, which is then
 //! followed by a `flags` byte: 0x01 bit-rate switch, 0x04 FD frame), and the payload.
 //!
-//! This link sends one frame per packet (no batching delay), and takes a packet the moment it
-//! arrives: its socket never blocks. Within a busy-poll window of its last send or receive (an
+//! This link sends a frame, or the frames of a message ([`Link::send_all`]), in one packet at once
+//! (no batching delay), and takes a packet the moment it arrives: its socket never blocks. Within a busy-poll window of its last send or receive (an
 //! exchange under way: the answer to what it just sent, the next frame of a message, the next
 //! tick of a host driving it back to back) `recv` reads the socket again without sleeping; after
 //! that it waits for the next datagram in `poll(2)` with the time left (a timeout ends on the
 //! kernel's high-resolution timer, within its 50 µs slack). The busy poll is for the wake-up: a
 //! thread asleep in `poll` is woken by the sender's kernel, which on this machine's virtual CPUs
 //! costs several times the datagram's own trip (issue 17: back to back, the round trip's p50 went
-//! 78–90 → 15 µs, README "Benchmarks"). The window adapts, as the kernel's halt polling does: a
-//! datagram that came after the link went to sleep, but within [`DEFAULT_BUSY_POLL`] of its last
-//! exchange, doubles it (a longer poll would have caught it), up to that limit; one that came
-//! later halves it, down to nothing. So a link whose peer answers at once keeps polling, and a
-//! link whose answers come late (a car at a real tick rate, a machine whose cores are busy, where
-//! polling would only keep the peer from a core) soon sleeps at once, as without it. An idle link
-//! takes no CPU time. [`UdpLink::set_busy_poll`] sets the limit ([`Duration::ZERO`]: never).
+//! 78–90 → 11–15 µs, README "Benchmarks"). The window adapts: a poll that catches a datagram
+//! doubles it, up to [`DEFAULT_BUSY_POLL`]; one that runs out halves it, down to
+//! [`MIN_BUSY_POLL`]. So a link whose peer answers at once keeps polling, and one whose answers
+//! come late (a car at a real tick rate, a machine whose cores are busy, where polling keeps the
+//! peer from a core) polls only briefly. It never stops altogether: a link that slept cannot tell
+//! from the time its datagram came whether a longer poll would have caught it, since that time
+//! includes its own wake-up (tens of microseconds here), so a window that fell to nothing would
+//! stay there. An idle link takes no CPU time. [`UdpLink::set_busy_poll`] sets the limit
+//! ([`Duration::ZERO`]: never).
 //!
 //! Remote and error frames received are skipped; a packet that is truncated or inconsistent is
 //! reported as malformed and dropped whole.
@@ -70,8 +72,17 @@ const CANFD_FDF: u8 = 0x04;
 /// module documentation).
 pub const DEFAULT_BUSY_POLL: Duration = Duration::from_micros(50);
 
-/// The window a busy poll grows from when it had shrunk to nothing.
-const MIN_BUSY_POLL: Duration = Duration::from_micros(5);
+/// The shortest window the busy poll shrinks to (or the limit, if that is shorter).
+pub const MIN_BUSY_POLL: Duration = Duration::from_micros(20);
+
+/// Largest packet [`Link::send_all`] sends: an Ethernet MTU's UDP payload, as cannelloni's own
+/// packets.
+pub const MAX_PACKET: usize = 1472;
+
+/// Bytes a frame takes in a packet.
+fn packed_len(frame: &CanFrame) -> usize {
+    4 + 1 + usize::from(frame.is_fd()) + frame.data().len()
+}
 
 /// Largest datagram read (cannelloni's default MTU-sized packets fit with room to spare).
 const MAX_DATAGRAM: usize = 2048;
@@ -289,17 +300,33 @@ impl UdpLink {
         self.window
     }
 
-    /// A datagram came `gap` after the link's last exchange, while it slept: a longer window
-    /// would have caught it if `gap` is within the limit (double the window), else no window
-    /// would have (halve it).
-    fn adapt(&mut self, gap: Duration) {
-        self.window = if gap <= self.busy_poll {
-            (self.window * 2).max(MIN_BUSY_POLL).min(self.busy_poll)
-        } else if self.window > MIN_BUSY_POLL {
-            self.window / 2
+    /// A busy poll caught a datagram (double the window, up to the limit) or ran out (halve it,
+    /// down to [`MIN_BUSY_POLL`]).
+    fn adapt(&mut self, caught: bool) {
+        let floor = MIN_BUSY_POLL.min(self.busy_poll);
+        self.window = if caught {
+            (self.window * 2).min(self.busy_poll)
         } else {
-            Duration::ZERO
+            (self.window / 2).max(floor)
         };
+    }
+
+    /// Sends `frames` in one packet (to the peer, or counted as unanswered while there is none).
+    fn send_packet(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        self.out.clear();
+        encode_packet(self.seq, frames, &mut self.out);
+        self.seq = self.seq.wrapping_add(1);
+        let result = if self.connected {
+            self.socket.send(&self.out)
+        } else {
+            let Some(peer) = self.answer_to.or(self.peer) else {
+                self.unanswered += frames.len() as u64;
+                return Ok(());
+            };
+            self.socket.send_to(&self.out, peer)
+        };
+        self.active = Instant::now();
+        result.map(|_| ()).map_err(|e| LinkError::io("udp send", e))
     }
 
     /// The address answers go to (listening: the sender of the last authenticated message).
@@ -325,20 +352,27 @@ impl Link for UdpLink {
     /// loopback at these rates) loses the frame with an [`LinkError::Io`], which the protocol
     /// recovers like any lost frame.
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
-        self.out.clear();
-        encode_packet(self.seq, std::slice::from_ref(frame), &mut self.out);
-        self.seq = self.seq.wrapping_add(1);
-        let result = if self.connected {
-            self.socket.send(&self.out)
-        } else {
-            let Some(peer) = self.answer_to.or(self.peer) else {
-                self.unanswered += 1;
-                return Ok(());
-            };
-            self.socket.send_to(&self.out, peer)
-        };
-        self.active = Instant::now();
-        result.map(|_| ()).map_err(|e| LinkError::io("udp send", e))
+        self.send_packet(std::slice::from_ref(frame))
+    }
+
+    /// Sends the frames in as few packets as hold them, each at most [`MAX_PACKET`] bytes (the
+    /// frames of one message: one packet).
+    fn send_all(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
+        let mut rest = frames;
+        while !rest.is_empty() {
+            let mut bytes = HEADER_LEN;
+            let n = rest
+                .iter()
+                .take_while(|f| {
+                    bytes += packed_len(f);
+                    bytes <= MAX_PACKET
+                })
+                .count()
+                .max(1);
+            self.send_packet(&rest[..n])?;
+            rest = &rest[n..];
+        }
+        Ok(())
     }
 
     /// Returns a frame already received, else reads the socket, and while it is empty waits in
@@ -346,7 +380,8 @@ impl Link for UdpLink {
     fn recv(&mut self, timeout: Duration) -> Result<Option<CanFrame>, LinkError> {
         self.answer_to = None;
         let start = Instant::now();
-        let mut slept = false;
+        // This call polled without sleeping; its poll ran out.
+        let (mut spun, mut missed) = (false, false);
         loop {
             if let Some((f, from)) = self.pending.pop_front() {
                 self.last_from = from;
@@ -362,9 +397,10 @@ impl Link for UdpLink {
             match got {
                 Ok((n, from)) => {
                     let now = Instant::now();
-                    if slept {
-                        self.adapt(now - self.active);
+                    if spun && !missed {
+                        self.adapt(true);
                     }
+                    (spun, missed) = (false, false);
                     self.active = now;
                     self.decoded.clear();
                     decode_packet(&self.buf[..n], &mut self.decoded)?;
@@ -379,10 +415,14 @@ impl Link for UdpLink {
                     }
                     // An exchange under way: read again rather than sleep (module docs).
                     if now < self.active + self.window {
+                        spun = true;
                         std::hint::spin_loop();
                         continue;
                     }
-                    slept = true;
+                    if spun && !missed {
+                        missed = true;
+                        self.adapt(false);
+                    }
                     wait_readable(&self.socket, left)?;
                 }
                 // A previous send to a closed port on loopback comes back as ECONNREFUSED (once;
@@ -425,30 +465,31 @@ mod tests {
         ]
     }
 
-    /// The busy poll's window: halved by each datagram that came later than the limit, down to
-    /// nothing; doubled by each that came within it after the link slept, up to the limit.
+    /// The busy poll's window: halved by each poll that runs out, down to its floor; doubled by
+    /// each that catches a datagram, up to the limit; off stays off.
     #[test]
     fn the_busy_poll_window_adapts_within_its_limit() {
         let mut link = UdpLink::listen("127.0.0.1:0".parse().unwrap()).unwrap();
-        let limit = DEFAULT_BUSY_POLL;
-        assert_eq!(link.busy_poll_window(), limit);
-        let late = limit + Duration::from_micros(1);
-        let mut windows = Vec::new();
-        for _ in 0..6 {
-            link.adapt(late);
-            windows.push(link.busy_poll_window().as_micros());
-        }
-        assert_eq!(windows, [25, 12, 6, 3, 0, 0]);
-        windows.clear();
-        for _ in 0..6 {
-            link.adapt(limit);
-            windows.push(link.busy_poll_window().as_micros());
-        }
-        assert_eq!(windows, [5, 10, 20, 40, 50, 50]);
+        assert_eq!(link.busy_poll_window(), DEFAULT_BUSY_POLL);
+        let windows = |link: &mut UdpLink, caught: bool| {
+            (0..3)
+                .map(|_| {
+                    link.adapt(caught);
+                    link.busy_poll_window().as_micros()
+                })
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(windows(&mut link, false), [25, 20, 20]);
+        assert_eq!(windows(&mut link, true), [40, 50, 50]);
+        link.set_busy_poll(Duration::from_micros(8));
+        assert_eq!(
+            windows(&mut link, false),
+            [8, 8, 8],
+            "a limit under the floor"
+        );
         link.set_busy_poll(Duration::ZERO);
-        link.adapt(Duration::ZERO);
-        link.adapt(Duration::from_micros(1));
-        assert_eq!(link.busy_poll_window(), Duration::ZERO, "off stays off");
+        assert_eq!(windows(&mut link, true), [0, 0, 0], "off stays off");
+        assert_eq!(windows(&mut link, false), [0, 0, 0]);
     }
 
     #[test]
@@ -542,6 +583,46 @@ mod tests {
             let _ = decode_packet(&bytes, &mut Vec::new());
             let _ = decode_packet(&prefixed, &mut Vec::new());
         }
+    }
+
+    /// `send_all` puts a message's frames in one packet, and as many frames as a packet of at
+    /// most `MAX_PACKET` bytes holds when they are more, in order; a listening link counts each
+    /// frame it could not send.
+    #[test]
+    fn send_all_packs_frames_into_as_few_packets_as_hold_them() {
+        let raw = UdpSocket::bind("127.0.0.1:0").unwrap();
+        raw.set_read_timeout(Some(Duration::from_secs(2))).unwrap();
+        let SocketAddr::V4(at) = raw.local_addr().unwrap() else {
+            unreachable!()
+        };
+        let mut link = UdpLink::connect(at).unwrap();
+        let mut buf = [0u8; MAX_DATAGRAM];
+        let mut packets = |link: &mut UdpLink, frames: &[CanFrame]| {
+            link.send_all(frames).unwrap();
+            let mut got = Vec::new();
+            let mut sizes = Vec::new();
+            while got.len() < frames.len() {
+                let n = raw.recv(&mut buf).unwrap();
+                sizes.push(n);
+                decode_packet(&buf[..n], &mut got).unwrap();
+            }
+            assert_eq!(got, frames);
+            sizes
+        };
+        assert_eq!(packets(&mut link, &frames()), [HEADER_LEN + 9 + 5 + 18]);
+        // 40 FD frames of 64 bytes, 70 bytes each in a packet: 20 fit in 1 472 bytes.
+        let many: Vec<CanFrame> = (0..40u8)
+            .map(|i| CanFrame::new_fd(CanId::standard(0x100).unwrap(), &[i; 64]).unwrap())
+            .collect();
+        assert_eq!(packets(&mut link, &many), [1405, 1405]);
+        assert_eq!(packets(&mut link, &many[..1]), [HEADER_LEN + 70]);
+        link.send_all(&[]).unwrap();
+        raw.set_nonblocking(true).unwrap();
+        assert!(raw.recv(&mut buf).is_err(), "no packet for no frames");
+
+        let mut server = UdpLink::listen("127.0.0.1:0".parse().unwrap()).unwrap();
+        server.send_all(&frames()).unwrap();
+        assert_eq!(server.unanswered(), 3);
     }
 
     #[test]

@@ -8,7 +8,7 @@ use anyhow::{Result, anyhow, bail};
 use firmware_core::agent::Decision;
 use firmware_core::observation::Observation;
 use firmware_core::{Feedback, LearnerSnapshot};
-use hil_mock::server::LinkBus;
+use hil_mock::server::BatchBus;
 use hil_mock::transport::{Link, LinkError};
 use protocol::delivery::{FeedbackSender, RetryPolicy, SenderEvent};
 use protocol::link::{Received, TransmitError, transmit};
@@ -25,24 +25,33 @@ impl<L: Link> RemoteCar<L> {
         self.start.elapsed().as_millis() as u32
     }
 
-    /// Sends `msg`; transient link errors are counted (the request is sent again later).
+    /// Sends `msg`, its frames together (one packet on UDP); transient link errors are counted
+    /// (the request is sent again later).
     pub(super) fn send(&mut self, msg: &Message) -> Result<()> {
-        match transmit(
-            &mut LinkBus(&mut self.link),
+        let mut bus = BatchBus::new(&mut self.link);
+        let sealed = transmit(
+            &mut bus,
             msg,
             Direction::HostToCar,
             self.config.mode,
             &mut self.security,
-        ) {
-            Ok(_) => Ok(()),
-            Err(TransmitError::Bus {
-                error: LinkError::Io { .. },
-                ..
-            }) => {
+        );
+        let sent = bus.flush();
+        match (sealed, sent) {
+            (Ok(_), Ok(())) => Ok(()),
+            (Ok(_), Err(LinkError::Io { .. }))
+            | (
+                Err(TransmitError::Bus {
+                    error: LinkError::Io { .. },
+                    ..
+                }),
+                _,
+            ) => {
                 self.stats.link_errors += 1;
                 Ok(())
             }
-            Err(e) => Err(anyhow!("{}: {e}", self.link.describe())),
+            (Ok(_), Err(e)) => Err(anyhow!("{}: {e}", self.link.describe())),
+            (Err(e), _) => Err(anyhow!("{}: {e}", self.link.describe())),
         }
     }
 
