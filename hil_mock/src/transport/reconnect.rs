@@ -90,21 +90,12 @@ impl std::fmt::Debug for ReconnectingLink {
 
 impl Link for ReconnectingLink {
     fn send(&mut self, frame: &CanFrame) -> Result<(), LinkError> {
-        let Some(link) = self.connection() else {
-            // Down: the frame is lost, as on a bus without a listener; the sender retries.
-            return Ok(());
-        };
-        match link.send(frame) {
-            Err(e) if Self::is_lost(&e) => {
-                self.lose(&e);
-                Ok(())
-            }
-            r => r,
-        }
+        self.send_all(std::slice::from_ref(frame))
     }
 
     fn send_all(&mut self, frames: &[CanFrame]) -> Result<(), LinkError> {
         let Some(link) = self.connection() else {
+            // Down: the frames are lost, as on a bus without a listener; the sender retries.
             return Ok(());
         };
         match link.send_all(frames) {
