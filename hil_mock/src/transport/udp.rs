@@ -16,21 +16,21 @@
 //! followed by a `flags` byte: 0x01 bit-rate switch, 0x04 FD frame), and the payload.
 //!
 //! This link sends a frame, or the frames of a message ([`Link::send_all`]), in one packet at once
-//! (no batching delay), and takes a packet the moment it arrives: its socket never blocks. Within a busy-poll window of its last send or receive (an
-//! exchange under way: the answer to what it just sent, the next frame of a message, the next
-//! tick of a host driving it back to back) `recv` reads the socket again without sleeping; after
-//! that it waits for the next datagram in `poll(2)` with the time left (a timeout ends on the
-//! kernel's high-resolution timer, within its 50 µs slack). The busy poll is for the wake-up: a
-//! thread asleep in `poll` is woken by the sender's kernel, which on this machine's virtual CPUs
-//! costs several times the datagram's own trip (issue 17: back to back, the round trip's p50 went
-//! 78–90 → 11–15 µs, README "Benchmarks"). The window adapts: a poll that catches a datagram
-//! doubles it, up to [`DEFAULT_BUSY_POLL`]; one that runs out halves it, down to
-//! [`MIN_BUSY_POLL`]. So a link whose peer answers at once keeps polling, and one whose answers
-//! come late (a car at a real tick rate, a machine whose cores are busy, where polling keeps the
-//! peer from a core) polls only briefly. It never stops altogether: a link that slept cannot tell
-//! from the time its datagram came whether a longer poll would have caught it, since that time
-//! includes its own wake-up (tens of microseconds here), so a window that fell to nothing would
-//! stay there. An idle link takes no CPU time. [`UdpLink::set_busy_poll`] sets the limit
+//! (no batching delay), and takes a packet the moment it arrives: its socket never blocks. Within a
+//! busy-poll window of its last send or receive (an exchange under way: the answer to what it just
+//! sent, the next frame of a message, the next tick of a host driving it back to back) `recv` reads
+//! the socket again without sleeping; after that it waits for the next datagram in `poll(2)` with
+//! the time left (a timeout ends on the kernel's high-resolution timer, within its 50 µs slack).
+//! The busy poll is for the wake-up: a thread asleep in `poll` is woken by the sender's kernel,
+//! which on this machine's virtual CPUs costs several times the datagram's own trip (issue 17: back
+//! to back, the round trip's p50 went 78–90 → 11–15 µs, README "Benchmarks"). The window adapts: a
+//! poll that catches a datagram doubles it, up to [`DEFAULT_BUSY_POLL`]; one that runs out halves
+//! it, down to [`MIN_BUSY_POLL`]. So a link whose peer answers at once keeps polling, and one whose
+//! answers come late (a car at a real tick rate, a machine whose cores are busy, where polling
+//! keeps the peer from a core) polls only briefly. It never stops altogether: a link that slept
+//! cannot tell from the time its datagram came whether a longer poll would have caught it, since
+//! that time includes its own wake-up (tens of microseconds here), so a window that fell to nothing
+//! would stay there. An idle link takes no CPU time. [`UdpLink::set_busy_poll`] sets the limit
 //! ([`Duration::ZERO`]: never).
 //!
 //! Remote and error frames received are skipped; a packet that is truncated or inconsistent is

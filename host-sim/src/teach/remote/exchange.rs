@@ -11,7 +11,7 @@ use firmware_core::{Feedback, LearnerSnapshot};
 use hil_mock::server::BatchBus;
 use hil_mock::transport::{Link, LinkError};
 use protocol::delivery::{FeedbackSender, RetryPolicy, SenderEvent};
-use protocol::link::{Received, TransmitError, transmit};
+use protocol::link::{Received, transmit};
 use protocol::message::{
     CarStatus, ConfigureMessage, ErrorCode, Message, NackCode, ObservationMessage, Welcome,
 };
@@ -36,22 +36,18 @@ impl<L: Link> RemoteCar<L> {
             self.config.mode,
             &mut self.security,
         );
-        let sent = bus.flush();
-        match (sealed, sent) {
-            (Ok(_), Ok(())) => Ok(()),
-            (Ok(_), Err(LinkError::Io { .. }))
-            | (
-                Err(TransmitError::Bus {
-                    error: LinkError::Io { .. },
-                    ..
-                }),
-                _,
-            ) => {
+        // The bus only holds frames, so a failed transmit is the message's own (sealing,
+        // segmenting) and nothing was sent; the link's errors come from the flush.
+        if let Err(e) = sealed {
+            return Err(anyhow!("{}: {e}", self.link.describe()));
+        }
+        match bus.flush() {
+            Ok(()) => Ok(()),
+            Err(LinkError::Io { .. }) => {
                 self.stats.link_errors += 1;
                 Ok(())
             }
-            (Ok(_), Err(e)) => Err(anyhow!("{}: {e}", self.link.describe())),
-            (Err(e), _) => Err(anyhow!("{}: {e}", self.link.describe())),
+            Err(e) => Err(anyhow!("{}: {e}", self.link.describe())),
         }
     }
 
