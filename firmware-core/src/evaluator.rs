@@ -429,7 +429,6 @@ impl Evaluator {
         // Farthest clusters first (their samples collide most often): a sample whose trajectories
         // all collide already is skipped. The nearest scan point of a sample within the clip is
         // in its cluster's near set, so its distance decides both the clearance and the collision.
-        let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
         let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
         let (mut collided, mut touched) = (0u64, 0u64);
         fill(clearance, OBSTACLE_CLIP);
@@ -509,27 +508,68 @@ impl Evaluator {
             ) else {
                 continue;
             };
-            for ((&[sx, sy], &of), c) in samples.iter().zip(trajectories).zip(clearance) {
-                if of & !collided == 0 {
+            // Two members at a time where two are left to measure: each point of the near set
+            // loaded once for both. The second's result is taken only if its trajectories do
+            // not all collide after the first's (as when they are measured one after the other).
+            let len = samples.len().min(trajectories.len()).min(clearance.len());
+            let mut i = 0;
+            while i < len {
+                if trajectories[i] & !collided == 0 {
+                    i += 1;
                     continue;
                 }
-                let mut best = clip2;
-                for &[px, py] in set {
-                    let dx = px - sx;
-                    let dy = py - sy;
-                    let d2 = dx * dx + dy * dy;
-                    if d2 < best {
-                        best = d2;
+                let mut j = i + 1;
+                while j < len && trajectories[j] & !collided == 0 {
+                    j += 1;
+                }
+                let [ax, ay] = samples[i];
+                if j < len {
+                    let [bx, by] = samples[j];
+                    let (mut best_a, mut best_b) = (clip2, clip2);
+                    for &[px, py] in set {
+                        let dx = px - ax;
+                        let dy = py - ay;
+                        let d2 = dx * dx + dy * dy;
+                        if d2 < best_a {
+                            best_a = d2;
+                        }
+                        let dx = px - bx;
+                        let dy = py - by;
+                        let d2 = dx * dx + dy * dy;
+                        if d2 < best_b {
+                            best_b = d2;
+                        }
                     }
+                    settle(
+                        best_a,
+                        trajectories[i],
+                        &mut clearance[i],
+                        &mut collided,
+                        &mut touched,
+                    );
+                    let of = trajectories[j];
+                    if of & !collided != 0 {
+                        settle(best_b, of, &mut clearance[j], &mut collided, &mut touched);
+                    }
+                } else {
+                    let mut best = clip2;
+                    for &[px, py] in set {
+                        let dx = px - ax;
+                        let dy = py - ay;
+                        let d2 = dx * dx + dy * dy;
+                        if d2 < best {
+                            best = d2;
+                        }
+                    }
+                    settle(
+                        best,
+                        trajectories[i],
+                        &mut clearance[i],
+                        &mut collided,
+                        &mut touched,
+                    );
                 }
-                if best < collide2 {
-                    // Its trajectories collide: its clearance is never read.
-                    collided |= of;
-                } else if best < clip2 {
-                    // At least the collision radius squared: the root's test is not needed.
-                    *c = clipped(newton_sqrt(best), OBSTACLE_CLIP);
-                    touched |= of;
-                }
+                i = j + 1;
             }
         }
         Obstacles::Measured {
@@ -1020,6 +1060,21 @@ fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_AC
         } else {
             [0.0; FEATURE_COUNT]
         };
+    }
+}
+
+/// The obstacle pass's verdict on one member whose least squared distance to a scan point (at
+/// most the clip's square) is `best`: its trajectories `of` collide, or its clearance is that
+/// distance (those trajectories touched) when it is within the clip.
+#[inline(always)]
+fn settle(best: f32, of: u64, c: &mut f32, collided: &mut u64, touched: &mut u64) {
+    if best < COLLISION_RADIUS * COLLISION_RADIUS {
+        // Its trajectories collide: its clearance is never read.
+        *collided |= of;
+    } else if best < OBSTACLE_CLIP * OBSTACLE_CLIP {
+        // At least the collision radius squared: the root's test is not needed.
+        *c = clipped(newton_sqrt(best), OBSTACLE_CLIP);
+        *touched |= of;
     }
 }
 
