@@ -491,8 +491,12 @@ impl Evaluator {
             let limit = clipped((m + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN, reach);
             let limit2 = limit * limit;
             let n = n.min(SCAN_BEAMS);
+            // The points kept before the first one left out stay where they are.
             let mut k = 0usize;
-            for i in 0..n {
+            while k < n && near_d2[k] < limit2 {
+                k += 1;
+            }
+            for i in k..n {
                 if near_d2[i] < limit2 {
                     near[k & (SCAN_BEAMS - 1)] = near[i];
                     k += 1;
