@@ -429,7 +429,6 @@ impl Evaluator {
         // Farthest clusters first (their samples collide most often): a sample whose trajectories
         // all collide already is skipped. The nearest scan point of a sample within the clip is
         // in its cluster's near set, so its distance decides both the clearance and the collision.
-        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
         let (mut collided, mut touched) = (0u64, 0u64);
         fill(clearance, OBSTACLE_CLIP);
         for cluster in CLUSTERS.iter().rev() {
@@ -496,13 +495,20 @@ impl Evaluator {
             while k < n && near_d2[k] < limit2 {
                 k += 1;
             }
-            for i in k..n {
+            let kept = k;
+            for i in kept..n {
                 if near_d2[i] < limit2 {
                     near[k & (SCAN_BEAMS - 1)] = near[i];
                     k += 1;
                 }
             }
-            let set = &near[..k.min(n)];
+            // The set holds the centre's nearest candidate: never empty. Each member's least
+            // starts from its first point rather than the clip's square: the same least when it
+            // is below the clip's square, and at least that square (no clearance, no collision)
+            // otherwise.
+            let Some((&[fx, fy], set)) = near[..k.min(n)].split_first() else {
+                continue;
+            };
             let start = usize::from(cluster.samples[0]);
             let end = usize::from(cluster.samples[1]);
             let (Some(samples), Some(trajectories), Some(clearance)) = (
@@ -529,7 +535,11 @@ impl Evaluator {
                 let [ax, ay] = samples[i];
                 if j < len {
                     let [bx, by] = samples[j];
-                    let (mut best_a, mut best_b) = (clip2, clip2);
+                    let d2 = |x: f32, y: f32| {
+                        let (dx, dy) = (fx - x, fy - y);
+                        dx * dx + dy * dy
+                    };
+                    let (mut best_a, mut best_b) = (d2(ax, ay), d2(bx, by));
                     for &[px, py] in set {
                         let dx = px - ax;
                         let dy = py - ay;
@@ -556,7 +566,8 @@ impl Evaluator {
                         settle(best_b, of, &mut clearance[j], &mut collided, &mut touched);
                     }
                 } else {
-                    let mut best = clip2;
+                    let (dx, dy) = (fx - ax, fy - ay);
+                    let mut best = dx * dx + dy * dy;
                     for &[px, py] in set {
                         let dx = px - ax;
                         let dy = py - ay;
@@ -1067,9 +1078,9 @@ fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_AC
     }
 }
 
-/// The obstacle pass's verdict on one member whose least squared distance to a scan point (at
-/// most the clip's square) is `best`: its trajectories `of` collide, or its clearance is that
-/// distance (those trajectories touched) when it is within the clip.
+/// The obstacle pass's verdict on one member whose least squared distance to its cluster's near
+/// set is `best`: its trajectories `of` collide, or its clearance is that distance (those
+/// trajectories touched) when it is within the clip; nothing at or beyond the clip.
 #[inline(always)]
 fn settle(best: f32, of: u64, c: &mut f32, collided: &mut u64, touched: &mut u64) {
     if best < COLLISION_RADIUS * COLLISION_RADIUS {
