@@ -429,10 +429,10 @@ impl Evaluator {
         // Farthest clusters first (their samples collide most often): a sample whose trajectories
         // all collide already is skipped. The nearest scan point of a sample within the clip is
         // in its cluster's near set, so its distance decides both the clearance and the collision.
-        let (mut collided, mut touched) = (0u64, 0u64);
+        let (mut alive, mut touched) = (u64::MAX, 0u64);
         fill(clearance, OBSTACLE_CLIP);
         for cluster in CLUSTERS.iter().rev() {
-            if cluster.trajectories & !collided == 0 {
+            if cluster.trajectories & alive == 0 {
                 continue;
             }
             let beams = candidates(shorter, &cluster.clip, close);
@@ -478,7 +478,7 @@ impl Evaluator {
             let m = sqrt(m2);
             if (m + spread) * (1.0 + 1.0e-5) + REACH_MARGIN < COLLISION_RADIUS {
                 // Every member is within the collision radius of the centre's nearest point.
-                collided |= cluster.trajectories;
+                alive &= !cluster.trajectories;
                 continue;
             }
             if (m - spread) * (1.0 - 1.0e-5) - REACH_MARGIN > OBSTACLE_CLIP {
@@ -524,12 +524,12 @@ impl Evaluator {
             let len = samples.len().min(trajectories.len()).min(clearance.len());
             let mut i = 0;
             while i < len {
-                if trajectories[i] & !collided == 0 {
+                if trajectories[i] & alive == 0 {
                     i += 1;
                     continue;
                 }
                 let mut j = i + 1;
-                while j < len && trajectories[j] & !collided == 0 {
+                while j < len && trajectories[j] & alive == 0 {
                     j += 1;
                 }
                 let [ax, ay] = samples[i];
@@ -558,12 +558,12 @@ impl Evaluator {
                         best_a,
                         trajectories[i],
                         &mut clearance[i],
-                        &mut collided,
+                        &mut alive,
                         &mut touched,
                     );
                     let of = trajectories[j];
-                    if of & !collided != 0 {
-                        settle(best_b, of, &mut clearance[j], &mut collided, &mut touched);
+                    if of & alive != 0 {
+                        settle(best_b, of, &mut clearance[j], &mut alive, &mut touched);
                     }
                 } else {
                     let (dx, dy) = (fx - ax, fy - ay);
@@ -580,7 +580,7 @@ impl Evaluator {
                         best,
                         trajectories[i],
                         &mut clearance[i],
-                        &mut collided,
+                        &mut alive,
                         &mut touched,
                     );
                 }
@@ -588,7 +588,7 @@ impl Evaluator {
             }
         }
         Obstacles::Measured {
-            allowed: !collided,
+            allowed: alive,
             touched,
         }
     }
@@ -1082,10 +1082,10 @@ fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_AC
 /// set is `best`: its trajectories `of` collide, or its clearance is that distance (those
 /// trajectories touched) when it is within the clip; nothing at or beyond the clip.
 #[inline(always)]
-fn settle(best: f32, of: u64, c: &mut f32, collided: &mut u64, touched: &mut u64) {
+fn settle(best: f32, of: u64, c: &mut f32, alive: &mut u64, touched: &mut u64) {
     if best < COLLISION_RADIUS * COLLISION_RADIUS {
         // Its trajectories collide: its clearance is never read.
-        *collided |= of;
+        *alive &= !of;
     } else if best < OBSTACLE_CLIP * OBSTACLE_CLIP {
         // At least the collision radius squared: the root's test is not needed.
         *c = clipped(newton_sqrt(best), OBSTACLE_CLIP);
