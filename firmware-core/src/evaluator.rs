@@ -1083,13 +1083,16 @@ fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_AC
 /// trajectories touched) when it is within the clip; nothing at or beyond the clip.
 #[inline(always)]
 fn settle(best: f32, of: u64, c: &mut f32, alive: &mut u64, touched: &mut u64) {
-    if best < COLLISION_RADIUS * COLLISION_RADIUS {
-        // Its trajectories collide: its clearance is never read.
-        *alive &= !of;
-    } else if best < OBSTACLE_CLIP * OBSTACLE_CLIP {
-        // At least the collision radius squared: the root's test is not needed.
-        *c = clipped(newton_sqrt(best), OBSTACLE_CLIP);
-        *touched |= of;
+    // Most members are beyond the clip: that test first.
+    if best < OBSTACLE_CLIP * OBSTACLE_CLIP {
+        if best < COLLISION_RADIUS * COLLISION_RADIUS {
+            // Its trajectories collide: its clearance is never read.
+            *alive &= !of;
+        } else {
+            // At least the collision radius squared: the root's test is not needed.
+            *c = clipped(newton_sqrt(best), OBSTACLE_CLIP);
+            *touched |= of;
+        }
     }
 }
 
