@@ -795,6 +795,12 @@ impl Evaluator {
         } else {
             objects
         };
+        // Two objects: which of them is the nearest to every member of a cluster, told by the
+        // cluster's side of their bisector where it can be (no root per object and cluster).
+        let pair = match objects {
+            [a, b] => Bisector::new(a, b),
+            _ => None,
+        };
         let mut touched = 0u64;
         for cluster in &CLUSTERS {
             // A cluster no allowed trajectory uses is skipped (the sums read no member of it);
@@ -811,6 +817,8 @@ impl Evaluator {
             // The squared distance from the centre to the last object within reach: the only
             // one's, when one alone is (its root is the centre's distance below).
             let mut last2 = 0.0;
+            // The first object's, when it is within reach.
+            let mut first2 = 0.0;
             for (k, o) in objects.iter().enumerate() {
                 let (dx, dy) = (cx - o.x, cy - o.y);
                 let limit = o.reach + cluster.spread;
@@ -818,7 +826,21 @@ impl Evaluator {
                 if d2 < limit * limit {
                     near |= 1 << k;
                     last2 = d2;
+                    if k == 0 {
+                        first2 = d2;
+                    }
                 }
+            }
+            if near == 0b11
+                && let Some(side) = pair.as_ref().and_then(|p| p.side(cluster))
+            {
+                // One of the two is the nearest to every member: the other is left out, as
+                // `dominant` would leave it out.
+                (near, last2) = if side == 0 {
+                    (0b01, first2)
+                } else {
+                    (0b10, last2)
+                };
             }
             if near == 0 {
                 let start = usize::from(cluster.samples[0]);
@@ -1178,6 +1200,77 @@ impl Disc {
             reach2: reach * reach,
             inner2: inner * inner,
             outer2: outer * outer,
+        }
+    }
+}
+
+/// The bisector of two objects' centres, to tell on which side of it a cluster lies: every
+/// member of a cluster far enough on `a`'s side has its clearance to `a` below its clearance to
+/// `b` by more than 2 mm, so `b` is left out of its least (as [`dominant`] leaves out an object
+/// another is nearer than for every member), and the other way round.
+///
+/// For a point `x` at signed distance `t` from the bisector towards `a`, with `h` half the
+/// distance between the centres, `|x − b|² − |x − a|² = 4ht`, so `|x − b| − |x − a| = 4ht /
+/// (|x − b| + |x − a|)`. Both objects are within reach of the cluster (`reach + spread` of its
+/// centre), so every member is within `reach + 2 · MAX_CLUSTER_SPREAD` of `a` and, by the
+/// triangle inequality, that plus `2h` of `b`: the sum is below `bound = 2 (reach + 2 ·
+/// MAX_CLUSTER_SPREAD) + 2h`. So `t ≥ need · bound / 4h` gives `|x − b| − |x − a| ≥ need`, with
+/// `need` the difference of radii plus the margin: `(|x − b| − r_b) − (|x − a| − r_a) ≥ 2 mm`.
+/// Every member is within the cluster's spread of its centre, whose `t` is taken once; the
+/// thresholds have a millimetre of slack against rounding.
+struct Bisector {
+    /// The midpoint of the centres.
+    mid: [f32; 2],
+    /// The unit vector from `b`'s centre to `a`'s.
+    normal: [f32; 2],
+    /// The least `t` of every member for `a` alone.
+    a_wins: f32,
+    /// The least `−t` of every member for `b` alone.
+    b_wins: f32,
+}
+
+impl Bisector {
+    /// The bisector of `a` and `b`, or `None` where their centres are within a centimetre
+    /// (the bound is of no use there).
+    fn new(a: &Disc, b: &Disc) -> Option<Self> {
+        let (dx, dy) = (a.x - b.x, a.y - b.y);
+        let d = sqrt(dx * dx + dy * dy);
+        if d <= 0.01 {
+            return None;
+        }
+        let h = 0.5 * d;
+        let margin = 2.0 * REACH_MARGIN;
+        let threshold = |near: &Disc, far: &Disc| {
+            let need = far.radius - near.radius + margin;
+            let bound = 2.0 * (near.reach + 2.0 * MAX_CLUSTER_SPREAD) + 2.0 * h;
+            let t = if need > 0.0 {
+                need * bound / (4.0 * h)
+            } else {
+                0.0
+            };
+            // Slack against the rounding of `t` and of the cluster's spread.
+            t * (1.0 + 1.0e-4) + REACH_MARGIN
+        };
+        Some(Self {
+            mid: [0.5 * (a.x + b.x), 0.5 * (a.y + b.y)],
+            normal: [dx / d, dy / d],
+            a_wins: threshold(a, b),
+            b_wins: threshold(b, a),
+        })
+    }
+
+    /// 0 if `a` is the nearest to every member of `cluster` by the margin, 1 if `b` is, `None`
+    /// if the bound cannot tell.
+    #[inline(always)]
+    fn side(&self, cluster: &Cluster) -> Option<u32> {
+        let [cx, cy] = cluster.centre;
+        let t = (cx - self.mid[0]) * self.normal[0] + (cy - self.mid[1]) * self.normal[1];
+        if t - cluster.spread >= self.a_wins {
+            Some(0)
+        } else if -t - cluster.spread >= self.b_wins {
+            Some(1)
+        } else {
+            None
         }
     }
 }
