@@ -481,11 +481,10 @@ impl Evaluator {
                 alive &= !cluster.trajectories;
                 continue;
             }
-            if (m - spread) * (1.0 - 1.0e-5) - REACH_MARGIN > OBSTACLE_CLIP {
-                // Every point is at least `m − s` from every member: beyond the clip, so every
-                // member keeps the clip and collides with nothing.
-                continue;
-            }
+            // No test of `m` against the clip: the centre's nearest candidate is within its reach
+            // (`m < reach = clip + s + 1 mm`, up to the root's rounding), so `m − s` is never
+            // beyond the clip with the margins such a test needs; and the members measured
+            // against the near set settle nothing beyond the clip anyway.
             // Generous against rounding: a relative 1e-5 and the 1 mm margin.
             let limit = clipped((m + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN, reach);
             let limit2 = limit * limit;
