@@ -61,8 +61,8 @@
 //!    `m + 2s` (the near set), usually one to three;
 //! 4. clusters are visited farthest first: a sample's nearest distance decides its collision,
 //!    and the samples whose trajectories all collide already are skipped, and so are the
-//!    members of a cluster whose centre's nearest candidate is beyond the clip by more than the
-//!    spread; then the semantic features run over the clusters some trajectory that does not
+//!    members of a cluster with no candidate within the clip plus its spread (and a
+//!    millimetre); then the semantic features run over the clusters some trajectory that does not
 //!    collide uses (every member of such a cluster: measuring a member that no such trajectory
 //!    uses costs less than testing it; a cluster near no object writes the clip, so no sample is
 //!    filled beforehand), and the sums over the trajectories that do not collide only; every
@@ -489,12 +489,13 @@ impl Evaluator {
             let limit = clipped((m + 2.0 * spread) * (1.0 + 1.0e-5) + REACH_MARGIN, reach);
             let limit2 = limit * limit;
             let n = n.min(SCAN_BEAMS);
-            // The points kept before the first one left out stay where they are.
-            let mut k = 0usize;
-            while k < n && near_d2[k] < limit2 {
-                k += 1;
-            }
-            let kept = k;
+            // The points kept before the first one left out stay where they are (found by
+            // `position`: fewer counters than an index loop; no distance is NaN).
+            let kept = near_d2[..n]
+                .iter()
+                .position(|&d2| d2 >= limit2)
+                .unwrap_or(n);
+            let mut k = kept;
             for i in kept..n {
                 if near_d2[i] < limit2 {
                     near[k & (SCAN_BEAMS - 1)] = near[i];
