@@ -150,6 +150,7 @@ use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
 };
 use crate::policy::WIDE;
+use crate::trig::sincosf;
 
 #[cfg(not(target_arch = "arm"))]
 use crate::lattice::{BEAM_CHUNKS, LANES};
@@ -309,7 +310,8 @@ impl Evaluator {
     /// feature of the trajectories that do not collide (the rows of the others zeroed), one bit
     /// per action that does not collide. The frame is made apart, so that a caller with a fresh
     /// evaluator on its stack (the agent) holds the scratch only here, not during the path's
-    /// `sincosf` too (768 bytes of frame on the car).
+    /// `sincosf` too (768 bytes of frame on the car while that was `libm`'s, with its
+    /// large-argument reduction; [`sincosf`] has none).
     pub(crate) fn clearances(
         &mut self,
         obs: ValidObservation<'_>,
@@ -1446,7 +1448,9 @@ const SHORTER: usize = (RANGE_BINS + 1).next_power_of_two();
 ///
 /// This is what a statement about the path ("stay on the path") judges (paper, section 6: the
 /// path by cross-track error; see [`crate::SemanticFeedback`]). The teacher on the host calls the
-/// same function, so both sides compare the same numbers. Exact (no root), not clipped.
+/// same function, so both sides compare the same numbers. Exact (no root), not clipped. The
+/// heading is a validated one (|heading| ≤ π, [`Observation::check`]); beyond ±5π/4 the car's
+/// sine and cosine are no longer `libm`'s bits (see [`sincosf`]).
 ///
 /// ```
 /// use firmware_core::evaluator::cross_track_errors;
@@ -1460,11 +1464,10 @@ const SHORTER: usize = (RANGE_BINS + 1).next_power_of_two();
 /// ```
 pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     let p = reference;
-    // `sincosf`, not `sinf` and `cosf`: those two then keep a single caller, `PathFrame::new`,
-    // and stay inlined in the tick's `act` (calling them out of line from there cost 440
-    // instructions a tick on the Cortex-M4, measured). Host and car both reach this function,
-    // so they compare the same numbers whatever the last bit of the heading's sine.
-    let (s, c) = libm::sincosf(p.heading);
+    // `sincosf` (`libm`'s bits for a validated heading, without its large-argument reduction:
+    // see `crate::trig`), as `PathFrame::new`. Host and car both reach this function, so they
+    // compare the same numbers whatever the last bit of the heading's sine.
+    let (s, c) = sincosf(p.heading);
     let mut out = [0.0f32; MAX_ACTIONS];
     for (d, &[x, y]) in out.iter_mut().zip(END_POINTS.iter()) {
         // The cross-track part of the end in the reference's frame (as `PathFrame::path_and_side`'s
@@ -1484,12 +1487,13 @@ pub(crate) struct PathFrame {
 }
 
 impl PathFrame {
-    /// The frame of `p`. Cosine and sine from `libm`: the same bits on the host and the car. One
-    /// `sincosf` is the same bits as `sinf` and `cosf` apart (every heading in [-π, π] checked
-    /// exhaustively) and reduces the angle once.
+    /// The frame of `p`, whose heading [`Observation::check`] validated (|heading| ≤ π). Cosine
+    /// and sine from [`sincosf`], `libm::sincosf`'s bits for such a heading (every one checked
+    /// exhaustively) on the host and the car: one `sincosf` is the same bits as `sinf` and `cosf`
+    /// apart (checked exhaustively too) and reduces the angle once.
     #[inline]
     pub(crate) fn new(p: &PathReference) -> Self {
-        let (sin, cos) = libm::sincosf(p.heading);
+        let (sin, cos) = sincosf(p.heading);
         Self {
             reference: Isometry2::from_parts(
                 Translation2::new(p.x, p.y),

@@ -115,6 +115,7 @@ pub mod learner;
 pub mod observation;
 pub mod policy;
 pub mod surrogate;
+pub mod trig;
 
 pub use action::{ActionIndex, ActionMask, ActionOutOfRange, MAX_ACTIONS};
 pub use error::{LearnError, ParamError, SnapshotError, UpdateError};
