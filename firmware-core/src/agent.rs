@@ -4,10 +4,9 @@
 //! [`TICK_HISTORY`] ticks, so that feedback arriving after the next observation (a slow link, a
 //! retransmission) is still judged against the tick it refers to.
 //!
-//! [`Agent::act`] checks the observation once and evaluates the checked one with an
-//! [`Evaluator`] of its own on the stack: its 3.75 KiB of scratch are needed only while it
-//! evaluates, so they take no room between ticks (on the car, the stack that decoding the next
-//! message uses). In a process where
+//! [`Agent::act`] checks the observation once and evaluates the checked one with the
+//! [`Evaluator`] it keeps (3 328 bytes of scratch, reused from tick to tick: a fresh one gives
+//! the same bits, and a kept one is not zeroed at every act). In a process where
 //! someone else evaluated the same observation already (the host's teacher),
 //! [`Agent::act_evaluated`] takes that [`Evaluation`] instead.
 //!
@@ -120,18 +119,31 @@ impl TickRecord {
     };
 }
 
-/// Learner and recent ticks: everything the car keeps between ticks, 6 392 bytes (the
-/// evaluator's 3 840 bytes of scratch live on the stack of [`Agent::act`], during the
-/// evaluation only; off the car each tick also keeps select's scores, 1 KiB more, and its
-/// table's columns, 1.5 KiB more: see [`FeatureTable`]).
+/// Learner, recent ticks and the evaluator's scratch: everything the car keeps between ticks,
+/// 9 720 bytes (the learner and the last ticks 6 392, the scratch 3 328; off the car each tick
+/// also keeps select's scores, 1 KiB more, and its table's columns, 1.5 KiB more: see
+/// [`FeatureTable`]).
 ///
 /// [`Agent::new`] is a `const fn`, so firmware can place an agent in a `static` (for example a
 /// `static_cell::ConstStaticCell`) without building it on the stack first.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Agent {
     learner: Learner,
     history: [TickRecord; TICK_HISTORY],
     next: usize,
+    /// The evaluator's scratch, reused from tick to tick (a fresh one gives the same bits).
+    evaluator: Evaluator,
+}
+
+impl fmt::Debug for Agent {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        // The evaluator's scratch is left out: nothing in it outlives an evaluation.
+        f.debug_struct("Agent")
+            .field("learner", &self.learner)
+            .field("history", &self.history)
+            .field("next", &self.next)
+            .finish_non_exhaustive()
+    }
 }
 
 impl Agent {
@@ -141,6 +153,7 @@ impl Agent {
             learner,
             history: [TickRecord::EMPTY; TICK_HISTORY],
             next: 0,
+            evaluator: Evaluator::new(),
         }
     }
 
@@ -170,13 +183,13 @@ impl Agent {
 
     /// [`Agent::act`] on an observation already checked.
     ///
-    /// The evaluator (its scratch, 3 840 bytes) is a local of this call: nothing it holds
-    /// outlives the evaluation, and a fresh one gives the same bits as a reused one.
+    /// The agent's evaluator is reused: nothing it holds outlives an evaluation, and a fresh
+    /// one gives the same bits as a reused one.
     pub fn act_checked(&mut self, tick: u32, obs: ValidObservation<'_>) -> Decision {
         let slot = self.slot_for(tick);
         let features = &mut self.history[slot].features;
         let frame = PathFrame::new(&obs.reference);
-        let allowed = ActionMask::from_bits(clearances(obs, &frame, features));
+        let allowed = ActionMask::from_bits(clearances(&mut self.evaluator, obs, &frame, features));
         self.decide(tick, slot, allowed, obs.reference)
     }
 
@@ -329,13 +342,16 @@ impl Agent {
 }
 
 /// The collisions and features of `obs` into `out` (what [`Evaluator::evaluate`] does once the
-/// path's frame is made), with a fresh [`Evaluator`] whose scratch lives in this call's frame
-/// alone. Never inlined: inlined into its callers (on the car, into the node's handling of a
-/// message), the scratch would sit in their frame during everything else they call too (the
-/// answer's MAC, a feedback's learning step), not only during the evaluation.
+/// path's frame is made), with the agent's `evaluator`. Never inlined: the evaluation's code
+/// and frame stay apart from its callers' (on the car, the node's handling of a message).
 #[inline(never)]
-fn clearances(obs: ValidObservation<'_>, frame: &PathFrame, out: &mut FeatureTable) -> u64 {
-    Evaluator::new().clearances(obs, frame, out)
+fn clearances(
+    evaluator: &mut Evaluator,
+    obs: ValidObservation<'_>,
+    frame: &PathFrame,
+    out: &mut FeatureTable,
+) -> u64 {
+    evaluator.clearances(obs, frame, out)
 }
 
 /// Learns from `feedback` about the tick `record` holds.

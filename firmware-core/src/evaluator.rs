@@ -222,15 +222,13 @@ impl Evaluation {
     }
 }
 
-/// The evaluator's scratch memory (3 840 bytes). Nothing in it outlives an evaluation: a fresh
+/// The evaluator's scratch memory (3 328 bytes). Nothing in it outlives an evaluation: a fresh
 /// evaluator gives the same bits as one reused from tick to tick. The
-/// [`Agent`](crate::agent::Agent) makes a fresh one on its stack for each evaluation, so the
-/// scratch takes no room between ticks (on the car, the room that decoding a message uses);
-/// a host evaluating many observations may keep one.
+/// [`Agent`](crate::agent::Agent) keeps one and reuses it (on the car a fresh one on the stack
+/// cost about 1 450 instructions an act to zero, `__aeabi_memclr4`, and the deepest stack
+/// path went through it).
 #[derive(Clone, Debug)]
 pub struct Evaluator {
-    /// Scan points in the car frame (of the beams within reach; the others are stale).
-    points: [[f32; 2]; SCAN_BEAMS],
     /// `shorter[b]`: the beams within reach whose range bin is below `b`, i.e. (up to rounding,
     /// which the margins absorb) whose range is below `b · RANGE_BIN_WIDTH`.
     shorter: [Beams; SHORTER],
@@ -239,8 +237,23 @@ pub struct Evaluator {
     near: [[f32; 2]; SCAN_BEAMS],
     /// Their squared distances from the cluster's centre.
     near_d2: [f32; SCAN_BEAMS],
-    /// Per distinct sample: clipped clearance (obstacles, then one class at a time).
+    /// Per distinct sample: clipped clearance (obstacles, then one class at a time); slot
+    /// `PAD_SAMPLE` stays 0. The scan points in the car frame (of the beams within reach; the
+    /// others are stale) live in the unused slots from `POINTS_AT` (see [`split_points`]).
     clearance: [f32; SCRATCH],
+}
+
+/// Where the scan points start in `Evaluator::clearance`: after the samples' slots (and the
+/// fill's), before the padding slot. The scratch's length is a power of two so that indexing it
+/// with a mask needs no bounds check; the points take 512 of its 644 spare bytes.
+const POINTS_AT: usize = UNIQUE_SAMPLES.next_multiple_of(4);
+const _: () = assert!(POINTS_AT + 2 * SCAN_BEAMS <= PAD_SAMPLE);
+
+/// The samples' slots of the scratch, and its scan points, one `[x, y]` per beam.
+#[inline(always)]
+fn split_points(clearance: &mut [f32; SCRATCH]) -> (&mut [f32], &mut [[f32; 2]]) {
+    let (samples, tail) = clearance.split_at_mut(POINTS_AT);
+    (samples, tail[..2 * SCAN_BEAMS].as_chunks_mut::<2>().0)
 }
 
 impl Default for Evaluator {
@@ -289,7 +302,6 @@ impl Evaluator {
     /// A fresh evaluator.
     pub const fn new() -> Self {
         Self {
-            points: [[0.0; 2]; SCAN_BEAMS],
             shorter: [[0; 2]; SHORTER],
             near: [[0.0; 2]; SCAN_BEAMS],
             near_d2: [0.0; SCAN_BEAMS],
@@ -389,12 +401,12 @@ impl Evaluator {
             return self.obstacles_wide(ranges);
         }
         let Self {
-            points,
             shorter,
             near,
             near_d2,
             clearance,
         } = self;
+        let (clearance, points) = split_points(clearance);
         // Beams within reach of some sample, binned by range (bin b holding [b·w, (b+1)·w)) into
         // `shorter[b + 1]`, then accumulated in place: `shorter[b]` holds the bins below b.
         // Longer beams are never looked at. (In place rather than in a local array of bins:
@@ -626,12 +638,13 @@ impl Evaluator {
         // The beams whose scan point may come within the clip of some lane of each chunk
         // (`BEAM_CHUNKS`, by the beam's range bin, the one the car's pass puts it in), and the
         // scan points, as the car's pass computes them.
+        let (clearance, points) = split_points(&mut self.clearance);
         let mut beams = [0u64; LANE_CHUNKS];
         while within != 0 {
             let j = within.trailing_zeros() as usize & (SCAN_BEAMS - 1);
             within &= within - 1;
             let r = ranges[j];
-            self.points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
+            points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
             let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
             let mut chunks = BEAM_CHUNKS[j].get(b).copied().unwrap_or(u32::MAX);
             while chunks != 0 {
@@ -642,11 +655,11 @@ impl Evaluator {
                 }
             }
         }
-        let points = &self.points;
+        let points = &*points;
         let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
         let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
         let (mut collided, mut touched) = (0u64, 0u64);
-        for (k, (c, &near)) in self.clearance[..LANE_CHUNKS * LANES]
+        for (k, (c, &near)) in clearance[..LANE_CHUNKS * LANES]
             .chunks_exact_mut(LANES)
             .zip(&beams)
             .enumerate()
@@ -1120,9 +1133,9 @@ fn settle(best: f32, of: u64, c: &mut f32, alive: &mut u64, touched: &mut u64) {
     }
 }
 
-/// Sets the clearance of every sample to `value` (the unused slots above stay 0).
+/// Sets the clearance of every sample to `value` (`clearance`: the samples' slots).
 #[inline]
-fn fill(clearance: &mut [f32; SCRATCH], value: f32) {
+fn fill(clearance: &mut [f32], value: f32) {
     // Four at a time, written out: a store-and-count loop spends three instructions per slot.
     for c in clearance[..UNIQUE_SAMPLES.next_multiple_of(4)].chunks_exact_mut(4) {
         c[0] = value;
@@ -1351,7 +1364,7 @@ fn members(cluster: &Cluster) -> impl Iterator<Item = usize> {
 const LANE_CHUNKS: usize = UNIQUE_SAMPLES.div_ceil(LANES);
 
 #[cfg(not(target_arch = "arm"))]
-const _: () = assert!(LANE_CHUNKS * LANES <= PAD_SAMPLE && LANE_CHUNKS <= 32);
+const _: () = assert!(LANE_CHUNKS * LANES <= POINTS_AT && LANE_CHUNKS <= 32);
 
 /// Where no sample is: a lane past the last sample, farther than any scan point's reach.
 #[cfg(not(target_arch = "arm"))]
@@ -1526,6 +1539,12 @@ pub fn beam_direction(j: usize) -> Option<(f32, f32)> {
 mod tests {
     use super::*;
     use crate::lattice::TRAJECTORIES;
+
+    #[test]
+    fn the_scratch_is_the_size_the_docs_give() {
+        // The agent keeps one (its documentation, and docs/firmware.md's RAM figures).
+        assert_eq!(core::mem::size_of::<Evaluator>(), 3328);
+    }
 
     #[test]
     fn end_points_are_the_trajectories_ends() {

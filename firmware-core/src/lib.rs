@@ -79,10 +79,10 @@
 //! ## Memory and time
 //!
 //! Nothing is allocated; everything lives in the caller's statics or stack. An [`agent::Agent`]
-//! is 6 392 bytes on the car: the learner (under 100 B) and the feature tables of the last four
-//! ticks (1.5 KiB each); off the car each tick also keeps select's 64 scores. Its evaluation takes a fresh evaluator's scratch (3 840 bytes) on the stack,
-//! for the evaluation only. The lattice and the evaluator's precomputed tables are `static` data
-//! in flash.
+//! is 9 720 bytes on the car: the learner (under 100 B), the feature tables of the last four
+//! ticks (1.5 KiB each) and its evaluator's scratch (3 328 bytes, reused from tick to tick);
+//! off the car each tick also keeps select's 64 scores. The lattice and the evaluator's
+//! precomputed tables are `static` data in flash.
 //!
 //! On the car's Cortex-M4F one tick (evaluate + select) costs 8.5 K instructions in open space and
 //! 42 K on average over real simulator ticks (`scripts/measure-firmware`, `docs/firmware.md`);
