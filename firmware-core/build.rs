@@ -13,6 +13,10 @@ mod params;
 
 use params::*;
 
+/// Number of regions (groups of nearby clusters) the semantic pass tests before their clusters.
+/// A constant of the evaluator's pruning, not of the lattice: here rather than in params.rs.
+const REGION_COUNT: usize = 8;
+
 /// A point or a displacement of the plane, in f64.
 ///
 /// The build script's own, so that building firmware-core does not compile nalgebra a second
@@ -683,6 +687,7 @@ fn main() {
     let mut window_pairs = 0usize;
     let mut entries = Vec::new();
     let mut start = 0usize;
+    let mut entry_samples = vec![0usize];
     for (members, &(centre, spread)) in clusters.iter().zip(cluster_info.iter()) {
         // Rounded up, so that every member is within `spread` of the f32 centre in f32 too.
         let spread = (spread * (1.0 + 1e-6) + 1e-6) as f32;
@@ -696,6 +701,7 @@ fn main() {
             centre[0] as f32, centre[1] as f32, spread
         ));
         start = end;
+        entry_samples.push(end);
     }
     writeln!(
         out,
@@ -752,6 +758,121 @@ fn main() {
         centre[1] as f32,
         spread,
         points.len()
+    )
+    .unwrap();
+    // Regions: groups of nearby clusters, which the semantic pass tests as one where it can
+    // (see `Evaluator::semantic`): k-means on the clusters' centres (weighted by their members),
+    // started from the centre farthest from the lattice's and then, one at a time, the centre
+    // farthest from those taken (deterministic), a fixed number of rounds. Each region has the
+    // centre of its members' bounding box and the largest distance of a member from it, rounded
+    // up as a cluster's.
+    let centres: Vec<[f64; 2]> = cluster_info.iter().map(|c| c.0).collect();
+    let d2 = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
+    let mut seeds = vec![
+        *centres
+            .iter()
+            .max_by(|a, b| d2(**a, centre).total_cmp(&d2(**b, centre)))
+            .expect("clusters"),
+    ];
+    while seeds.len() < REGION_COUNT.min(centres.len()) {
+        let far = |c: &[f64; 2]| seeds.iter().map(|s| d2(*c, *s)).fold(f64::MAX, f64::min);
+        let next = *centres
+            .iter()
+            .max_by(|a, b| far(a).total_cmp(&far(b)))
+            .expect("clusters");
+        seeds.push(next);
+    }
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for _ in 0..50 {
+        groups = vec![Vec::new(); seeds.len()];
+        for (i, c) in centres.iter().enumerate() {
+            let (g, _) = seeds
+                .iter()
+                .enumerate()
+                .map(|(g, s)| (g, d2(*c, *s)))
+                .fold((0, f64::MAX), |best, x| if x.1 < best.1 { x } else { best });
+            groups[g].push(i);
+        }
+        groups.retain(|g| !g.is_empty());
+        seeds = groups
+            .iter()
+            .map(|g| {
+                let w: f64 = g.iter().map(|&i| clusters[i].len() as f64).sum();
+                let mut m = [0.0; 2];
+                for &i in g {
+                    for k in 0..2 {
+                        m[k] += centres[i][k] * clusters[i].len() as f64 / w;
+                    }
+                }
+                m
+            })
+            .collect();
+    }
+    let mut region_entries = Vec::new();
+    let mut region_clusters = Vec::new();
+    let mut max_region_spread = 0.0f64;
+    for g in &groups {
+        let members: Vec<usize> = g
+            .iter()
+            .flat_map(|&i| clusters[i].iter().copied())
+            .collect();
+        let (centre, spread, _) = bounds(&members);
+        max_region_spread = max_region_spread.max(spread);
+        let spread = (spread * (1.0 + 1e-6) + 1e-6) as f32;
+        let start = region_clusters.len();
+        let mut trajectories = 0u64;
+        for &i in g {
+            region_clusters.push(i);
+            let [a, b] = [entry_samples[i], entry_samples[i + 1]];
+            trajectories |= (a..b).fold(0u64, |m, u| m | trajectories_of[u]);
+        }
+        region_entries.push(format!(
+            "Region {{ centre: [{:?}, {:?}], spread: {:?}, clusters: [{start}, {}], trajectories: {trajectories:#018x} }}",
+            centre[0] as f32,
+            centre[1] as f32,
+            spread,
+            region_clusters.len()
+        ));
+    }
+    assert!(region_clusters.len() == clusters.len() && clusters.len() <= u8::MAX as usize);
+    writeln!(
+        out,
+        "/// Largest distance of a sample from its region's centre (m)."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) const MAX_REGION_SPREAD: f32 = {};",
+        f(max_region_spread * (1.0 + 1e-6) + 1e-6)
+    )
+    .unwrap();
+    writeln!(out, "/// Number of regions.").unwrap();
+    writeln!(
+        out,
+        "pub(crate) const REGION_COUNT: usize = {};",
+        region_entries.len()
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// Groups of nearby clusters (their clusters `REGION_CLUSTERS[clusters[0]..clusters[1]]`)."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static REGIONS: [Region; REGION_COUNT] = [{}];",
+        list(region_entries)
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// The clusters (indices into `CLUSTERS`), region by region, increasing within each."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static REGION_CLUSTERS: [u8; CLUSTER_COUNT] = [{}];",
+        list(region_clusters.iter().map(|i| i.to_string()).collect())
     )
     .unwrap();
     // Sums along trajectories share their starts: cruise trajectories with the same first

@@ -142,9 +142,9 @@ use crate::action::{ActionMask, MAX_ACTIONS};
 use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
 use crate::lattice::{
     BEAM_COS, BEAM_REACH, BEAM_SIN, CLUSTERS, Cluster, END_POINTS, HEAD_COUNT, HEAD_OF, HEADS,
-    LATTICE, MAX_CLUSTER_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE, RANGE_BIN_WIDTH,
-    RANGE_BINS, REACH_MARGIN, ROW_SCALE, Reach, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES,
-    SCAN_BEAMS, TAIL_OF, UNIQUE_SAMPLES,
+    LATTICE, MAX_CLUSTER_SPREAD, MAX_REGION_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE,
+    RANGE_BIN_WIDTH, RANGE_BINS, REACH_MARGIN, REGION_CLUSTERS, REGIONS, ROW_SCALE, Reach, Region,
+    SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS, TAIL_OF, UNIQUE_SAMPLES,
 };
 use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
@@ -804,26 +804,22 @@ impl Evaluator {
             _ => None,
         };
         let mut touched = 0u64;
-        for cluster in &CLUSTERS {
-            // A cluster no allowed trajectory uses is skipped (the sums read no member of it);
-            // in the others every member is written: the clip, or measured (a member only
-            // colliding trajectories use is written and never read: measuring it costs less than
-            // testing it). So every sample an allowed trajectory has is written, without a fill
-            // of every sample.
-            if cluster.trajectories & allowed == 0 {
+        for region in &REGIONS {
+            // A region no allowed trajectory uses is skipped, as its clusters would be.
+            if region.trajectories & allowed == 0 {
                 continue;
             }
-            // The objects within reach of some member of the cluster.
-            let [cx, cy] = cluster.centre;
+            let clusters = REGION_CLUSTERS
+                .get(usize::from(region.clusters[0])..usize::from(region.clusters[1]))
+                .unwrap_or(&[]);
+            // The objects within reach of some member of the region, as for a cluster below.
+            let [cx, cy] = region.centre;
             let mut near = 0u32;
-            // The squared distance from the centre to the last object within reach: the only
-            // one's, when one alone is (its root is the centre's distance below).
             let mut last2 = 0.0;
-            // The first object's, when it is within reach.
             let mut first2 = 0.0;
             for (k, o) in objects.iter().enumerate() {
                 let (dx, dy) = (cx - o.x, cy - o.y);
-                let limit = o.reach + cluster.spread;
+                let limit = o.reach + region.spread;
                 let d2 = dx * dx + dy * dy;
                 if d2 < limit * limit {
                     near |= 1 << k;
@@ -834,10 +830,8 @@ impl Evaluator {
                 }
             }
             if near == 0b11
-                && let Some(side) = pair.as_ref().and_then(|p| p.side(cluster))
+                && let Some(side) = pair.as_ref().and_then(|p| p.side_of_region(region))
             {
-                // One of the two is the nearest to every member: the other is left out, as
-                // `dominant` would leave it out.
                 (near, last2) = if side == 0 {
                     (0b01, first2)
                 } else {
@@ -845,52 +839,133 @@ impl Evaluator {
                 };
             }
             if near == 0 {
-                let start = usize::from(cluster.samples[0]);
-                let end = usize::from(cluster.samples[1]);
-                if let Some(clearance) = self.clearance.get_mut(start..end) {
-                    for c in clearance {
-                        *c = SEMANTIC_CLIP;
+                // No object within reach of any member: every member of a cluster an allowed
+                // trajectory uses reads the clip (as a cluster near no object below).
+                for &i in clusters {
+                    let Some(cluster) = CLUSTERS.get(usize::from(i)) else {
+                        continue;
+                    };
+                    if cluster.trajectories & allowed == 0 {
+                        continue;
                     }
-                }
-                continue;
-            }
-            touched |= cluster.trajectories;
-            if near & (near - 1) == 0 {
-                let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
-                if o.inner2 < last2 && last2 < o.outer2 {
-                    self.roots(cluster, o);
-                    continue;
-                }
-            }
-            let centre;
-            (near, centre) = if near & (near - 1) == 0 {
-                (near, sqrt(last2))
-            } else {
-                dominant(objects, near, cluster)
-            };
-            if near & (near - 1) == 0 {
-                let k = near.trailing_zeros() as usize & (MAX_OBJECTS - 1);
-                self.one_object(cluster, &objects[k], centre);
-                continue;
-            }
-            for u in members(cluster) {
-                let [sx, sy] = SAMPLE_POINTS[u];
-                let mut c = SEMANTIC_CLIP;
-                let mut bits = near;
-                while bits != 0 {
-                    let o = &objects[bits.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
-                    bits &= bits - 1;
-                    let (dx, dy) = (sx - o.x, sy - o.y);
-                    let d2 = dx * dx + dy * dy;
-                    if d2 < o.reach2 {
-                        let d = sqrt(d2) - o.radius;
-                        let d = if d > 0.0 { d } else { 0.0 };
-                        if d < c {
-                            c = d;
+                    let start = usize::from(cluster.samples[0]);
+                    let end = usize::from(cluster.samples[1]);
+                    if let Some(clearance) = self.clearance.get_mut(start..end) {
+                        for c in clearance {
+                            *c = SEMANTIC_CLIP;
                         }
                     }
                 }
-                self.clearance[u] = c;
+                continue;
+            }
+            if near & (near - 1) == 0 {
+                // One object alone may be the nearest to some member: where the region is within
+                // its clip and outside its disc, every member reads its root less the radius.
+                let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                if o.settles(sqrt(last2), region.spread) {
+                    touched |= region.trajectories;
+                    for &i in clusters {
+                        let Some(cluster) = CLUSTERS.get(usize::from(i)) else {
+                            continue;
+                        };
+                        if cluster.trajectories & allowed != 0 {
+                            self.roots(cluster, o);
+                        }
+                    }
+                    continue;
+                }
+            }
+            for &i in clusters {
+                let Some(cluster) = CLUSTERS.get(usize::from(i)) else {
+                    continue;
+                };
+                // A cluster no allowed trajectory uses is skipped (the sums read no member of
+                // it); in the others every member is written: the clip, or measured (a member
+                // only colliding trajectories use is written and never read: measuring it costs
+                // less than testing it). So every sample an allowed trajectory has is written,
+                // without a fill of every sample.
+                if cluster.trajectories & allowed == 0 {
+                    continue;
+                }
+                // The objects within reach of some member of the cluster.
+                let [cx, cy] = cluster.centre;
+                let mut near = 0u32;
+                // The squared distance from the centre to the last object within reach: the only
+                // one's, when one alone is (its root is the centre's distance below).
+                let mut last2 = 0.0;
+                // The first object's, when it is within reach.
+                let mut first2 = 0.0;
+                for (k, o) in objects.iter().enumerate() {
+                    let (dx, dy) = (cx - o.x, cy - o.y);
+                    let limit = o.reach + cluster.spread;
+                    let d2 = dx * dx + dy * dy;
+                    if d2 < limit * limit {
+                        near |= 1 << k;
+                        last2 = d2;
+                        if k == 0 {
+                            first2 = d2;
+                        }
+                    }
+                }
+                if near == 0b11
+                    && let Some(side) = pair.as_ref().and_then(|p| p.side(cluster))
+                {
+                    // One of the two is the nearest to every member: the other is left out, as
+                    // `dominant` would leave it out.
+                    (near, last2) = if side == 0 {
+                        (0b01, first2)
+                    } else {
+                        (0b10, last2)
+                    };
+                }
+                if near == 0 {
+                    let start = usize::from(cluster.samples[0]);
+                    let end = usize::from(cluster.samples[1]);
+                    if let Some(clearance) = self.clearance.get_mut(start..end) {
+                        for c in clearance {
+                            *c = SEMANTIC_CLIP;
+                        }
+                    }
+                    continue;
+                }
+                touched |= cluster.trajectories;
+                if near & (near - 1) == 0 {
+                    let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                    if o.inner2 < last2 && last2 < o.outer2 {
+                        self.roots(cluster, o);
+                        continue;
+                    }
+                }
+                let centre;
+                (near, centre) = if near & (near - 1) == 0 {
+                    (near, sqrt(last2))
+                } else {
+                    dominant(objects, near, cluster)
+                };
+                if near & (near - 1) == 0 {
+                    let k = near.trailing_zeros() as usize & (MAX_OBJECTS - 1);
+                    self.one_object(cluster, &objects[k], centre);
+                    continue;
+                }
+                for u in members(cluster) {
+                    let [sx, sy] = SAMPLE_POINTS[u];
+                    let mut c = SEMANTIC_CLIP;
+                    let mut bits = near;
+                    while bits != 0 {
+                        let o = &objects[bits.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                        bits &= bits - 1;
+                        let (dx, dy) = (sx - o.x, sy - o.y);
+                        let d2 = dx * dx + dy * dy;
+                        if d2 < o.reach2 {
+                            let d = sqrt(d2) - o.radius;
+                            let d = if d > 0.0 { d } else { 0.0 };
+                            if d < c {
+                                c = d;
+                            }
+                        }
+                    }
+                    self.clearance[u] = c;
+                }
             }
         }
         self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
@@ -1229,6 +1304,10 @@ struct Bisector {
     a_wins: f32,
     /// The least `−t` of every member for `b` alone.
     b_wins: f32,
+    /// `a_wins` for a region (the bound with [`MAX_REGION_SPREAD`]).
+    a_wins_region: f32,
+    /// `b_wins` for a region.
+    b_wins_region: f32,
 }
 
 impl Bisector {
@@ -1242,9 +1321,9 @@ impl Bisector {
         }
         let h = 0.5 * d;
         let margin = 2.0 * REACH_MARGIN;
-        let threshold = |near: &Disc, far: &Disc| {
+        let threshold = |near: &Disc, far: &Disc, spread: f32| {
             let need = far.radius - near.radius + margin;
-            let bound = 2.0 * (near.reach + 2.0 * MAX_CLUSTER_SPREAD) + 2.0 * h;
+            let bound = 2.0 * (near.reach + 2.0 * spread) + 2.0 * h;
             let t = if need > 0.0 {
                 need * bound / (4.0 * h)
             } else {
@@ -1256,8 +1335,10 @@ impl Bisector {
         Some(Self {
             mid: [0.5 * (a.x + b.x), 0.5 * (a.y + b.y)],
             normal: [dx / d, dy / d],
-            a_wins: threshold(a, b),
-            b_wins: threshold(b, a),
+            a_wins: threshold(a, b, MAX_CLUSTER_SPREAD),
+            b_wins: threshold(b, a, MAX_CLUSTER_SPREAD),
+            a_wins_region: threshold(a, b, MAX_REGION_SPREAD),
+            b_wins_region: threshold(b, a, MAX_REGION_SPREAD),
         })
     }
 
@@ -1265,11 +1346,29 @@ impl Bisector {
     /// if the bound cannot tell.
     #[inline(always)]
     fn side(&self, cluster: &Cluster) -> Option<u32> {
-        let [cx, cy] = cluster.centre;
+        self.side_at(cluster.centre, cluster.spread, self.a_wins, self.b_wins)
+    }
+
+    /// [`Bisector::side`] for every member of `region` (both objects within reach of it).
+    #[inline(always)]
+    fn side_of_region(&self, region: &Region) -> Option<u32> {
+        self.side_at(
+            region.centre,
+            region.spread,
+            self.a_wins_region,
+            self.b_wins_region,
+        )
+    }
+
+    /// [`Bisector::side`] for the points within `spread` of `centre`, with the thresholds
+    /// `a_wins` and `b_wins` made for that spread.
+    #[inline(always)]
+    fn side_at(&self, centre: [f32; 2], spread: f32, a_wins: f32, b_wins: f32) -> Option<u32> {
+        let [cx, cy] = centre;
         let t = (cx - self.mid[0]) * self.normal[0] + (cy - self.mid[1]) * self.normal[1];
-        if t - cluster.spread >= self.a_wins {
+        if t - spread >= a_wins {
             Some(0)
-        } else if -t - cluster.spread >= self.b_wins {
+        } else if -t - spread >= b_wins {
             Some(1)
         } else {
             None

@@ -184,6 +184,21 @@ pub(crate) struct Cluster {
     pub(crate) clip: Reach,
 }
 
+/// Nearby clusters, which the semantic pass tests as one where it can: the clusters
+/// `REGION_CLUSTERS[clusters[0]..clusters[1]]`, every member of which is within `spread` of
+/// `centre`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Region {
+    /// The centre, `[x, y]` (m).
+    pub(crate) centre: [f32; 2],
+    /// Largest distance of a member of its clusters from the centre (m), rounded up.
+    pub(crate) spread: f32,
+    /// Its clusters: `REGION_CLUSTERS[clusters[0]..clusters[1]]`.
+    pub(crate) clusters: [u8; 2],
+    /// The trajectories some member belongs to, one bit per action.
+    pub(crate) trajectories: u64,
+}
+
 include!(concat!(env!("OUT_DIR"), "/lattice_tables.rs"));
 
 /// The trajectory of action `a`.
