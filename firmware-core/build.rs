@@ -432,8 +432,8 @@ fn main() {
         todo.push(upper);
         todo.push(members);
     }
-    // Clusters by increasing distance of their centre from the sensor; samples renumbered cluster
-    // by cluster (in their first-appearance order within a cluster).
+    // Clusters by increasing distance of their centre from the sensor (samples renumbered below,
+    // in their first-appearance order within a cluster).
     let rho_of = |c: [f64; 2]| libm::hypot(c[0], c[1]);
     for members in &mut clusters {
         members.sort_unstable();
@@ -443,7 +443,69 @@ fn main() {
             .total_cmp(&rho_of(bounds(b).0))
             .then(a[0].cmp(&b[0]))
     });
-    let order: Vec<usize> = clusters.iter().flatten().copied().collect();
+    // Regions: groups of nearby clusters, which the semantic pass tests as one where it can
+    // (see `Evaluator::semantic`): k-means on the clusters' centres (weighted by their members),
+    // started from the centre farthest from the lattice's and then, one at a time, the centre
+    // farthest from those taken (deterministic), a fixed number of rounds. Each region has the
+    // centre of its members' bounding box and the largest distance of a member from it, rounded
+    // up as a cluster's. Samples are renumbered region by region, then cluster by cluster (in
+    // `REGION_CLUSTERS` order), so that a region's members are consecutive too; `CLUSTERS` keeps
+    // its order (by distance from the sensor).
+    let every: Vec<usize> = (0..points.len()).collect();
+    let (centre, _, _) = bounds(&every);
+    let centres: Vec<[f64; 2]> = clusters.iter().map(|m| bounds(m).0).collect();
+    let d2 = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
+    let mut seeds = vec![
+        *centres
+            .iter()
+            .max_by(|a, b| d2(**a, centre).total_cmp(&d2(**b, centre)))
+            .expect("clusters"),
+    ];
+    while seeds.len() < REGION_COUNT.min(centres.len()) {
+        let far = |c: &[f64; 2]| seeds.iter().map(|s| d2(*c, *s)).fold(f64::MAX, f64::min);
+        let next = *centres
+            .iter()
+            .max_by(|a, b| far(a).total_cmp(&far(b)))
+            .expect("clusters");
+        seeds.push(next);
+    }
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for _ in 0..50 {
+        groups = vec![Vec::new(); seeds.len()];
+        for (i, c) in centres.iter().enumerate() {
+            let (g, _) = seeds
+                .iter()
+                .enumerate()
+                .map(|(g, s)| (g, d2(*c, *s)))
+                .fold((0, f64::MAX), |best, x| if x.1 < best.1 { x } else { best });
+            groups[g].push(i);
+        }
+        groups.retain(|g| !g.is_empty());
+        seeds = groups
+            .iter()
+            .map(|g| {
+                let w: f64 = g.iter().map(|&i| clusters[i].len() as f64).sum();
+                let mut m = [0.0; 2];
+                for &i in g {
+                    for k in 0..2 {
+                        m[k] += centres[i][k] * clusters[i].len() as f64 / w;
+                    }
+                }
+                m
+            })
+            .collect();
+    }
+    let order: Vec<usize> = groups
+        .iter()
+        .flatten()
+        .flat_map(|&i| clusters[i].iter().copied())
+        .collect();
+    let mut cluster_start = vec![0usize; clusters.len()];
+    let mut next = 0;
+    for &i in groups.iter().flatten() {
+        cluster_start[i] = next;
+        next += clusters[i].len();
+    }
     assert_eq!(order.len(), points.len());
     let mut renumber = vec![0usize; points.len()];
     for (new, &old) in order.iter().enumerate() {
@@ -686,9 +748,9 @@ fn main() {
     };
     let mut window_pairs = 0usize;
     let mut entries = Vec::new();
-    let mut start = 0usize;
-    let mut entry_samples = vec![0usize];
-    for (members, &(centre, spread)) in clusters.iter().zip(cluster_info.iter()) {
+    for ((members, &(centre, spread)), &start) in
+        clusters.iter().zip(cluster_info.iter()).zip(&cluster_start)
+    {
         // Rounded up, so that every member is within `spread` of the f32 centre in f32 too.
         let spread = (spread * (1.0 + 1e-6) + 1e-6) as f32;
         let spread = if (spread as f64) < 0.0 { 0.0 } else { spread };
@@ -700,8 +762,6 @@ fn main() {
             "Cluster {{ centre: [{:?}, {:?}], spread: {:?}, samples: [{start}, {end}], trajectories: {trajectories:#018x}, clip: {clip} }}",
             centre[0] as f32, centre[1] as f32, spread
         ));
-        start = end;
-        entry_samples.push(end);
     }
     writeln!(
         out,
@@ -760,57 +820,10 @@ fn main() {
         points.len()
     )
     .unwrap();
-    // Regions: groups of nearby clusters, which the semantic pass tests as one where it can
-    // (see `Evaluator::semantic`): k-means on the clusters' centres (weighted by their members),
-    // started from the centre farthest from the lattice's and then, one at a time, the centre
-    // farthest from those taken (deterministic), a fixed number of rounds. Each region has the
-    // centre of its members' bounding box and the largest distance of a member from it, rounded
-    // up as a cluster's.
-    let centres: Vec<[f64; 2]> = cluster_info.iter().map(|c| c.0).collect();
-    let d2 = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
-    let mut seeds = vec![
-        *centres
-            .iter()
-            .max_by(|a, b| d2(**a, centre).total_cmp(&d2(**b, centre)))
-            .expect("clusters"),
-    ];
-    while seeds.len() < REGION_COUNT.min(centres.len()) {
-        let far = |c: &[f64; 2]| seeds.iter().map(|s| d2(*c, *s)).fold(f64::MAX, f64::min);
-        let next = *centres
-            .iter()
-            .max_by(|a, b| far(a).total_cmp(&far(b)))
-            .expect("clusters");
-        seeds.push(next);
-    }
-    let mut groups: Vec<Vec<usize>> = Vec::new();
-    for _ in 0..50 {
-        groups = vec![Vec::new(); seeds.len()];
-        for (i, c) in centres.iter().enumerate() {
-            let (g, _) = seeds
-                .iter()
-                .enumerate()
-                .map(|(g, s)| (g, d2(*c, *s)))
-                .fold((0, f64::MAX), |best, x| if x.1 < best.1 { x } else { best });
-            groups[g].push(i);
-        }
-        groups.retain(|g| !g.is_empty());
-        seeds = groups
-            .iter()
-            .map(|g| {
-                let w: f64 = g.iter().map(|&i| clusters[i].len() as f64).sum();
-                let mut m = [0.0; 2];
-                for &i in g {
-                    for k in 0..2 {
-                        m[k] += centres[i][k] * clusters[i].len() as f64 / w;
-                    }
-                }
-                m
-            })
-            .collect();
-    }
     let mut region_entries = Vec::new();
     let mut region_clusters = Vec::new();
     let mut max_region_spread = 0.0f64;
+    let mut start = 0;
     for g in &groups {
         let members: Vec<usize> = g
             .iter()
@@ -819,20 +832,18 @@ fn main() {
         let (centre, spread, _) = bounds(&members);
         max_region_spread = max_region_spread.max(spread);
         let spread = (spread * (1.0 + 1e-6) + 1e-6) as f32;
-        let start = region_clusters.len();
-        let mut trajectories = 0u64;
-        for &i in g {
-            region_clusters.push(i);
-            let [a, b] = [entry_samples[i], entry_samples[i + 1]];
-            trajectories |= (a..b).fold(0u64, |m, u| m | trajectories_of[u]);
-        }
+        let first = region_clusters.len();
+        region_clusters.extend_from_slice(g);
+        let end = start + members.len();
+        let trajectories = (start..end).fold(0u64, |m, u| m | trajectories_of[u]);
         region_entries.push(format!(
-            "Region {{ centre: [{:?}, {:?}], spread: {:?}, clusters: [{start}, {}], trajectories: {trajectories:#018x} }}",
+            "Region {{ centre: [{:?}, {:?}], spread: {:?}, samples: [{start}, {end}], clusters: [{first}, {}], trajectories: {trajectories:#018x} }}",
             centre[0] as f32,
             centre[1] as f32,
             spread,
             region_clusters.len()
         ));
+        start = end;
     }
     assert!(region_clusters.len() == clusters.len() && clusters.len() <= u8::MAX as usize);
     writeln!(

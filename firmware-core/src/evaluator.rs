@@ -864,14 +864,7 @@ impl Evaluator {
                 let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
                 if o.settles(sqrt(last2), region.spread) {
                     touched |= region.trajectories;
-                    for &i in clusters {
-                        let Some(cluster) = CLUSTERS.get(usize::from(i)) else {
-                            continue;
-                        };
-                        if cluster.trajectories & allowed != 0 {
-                            self.roots(cluster, o);
-                        }
-                    }
+                    self.region_roots(region, o, allowed);
                     continue;
                 }
             }
@@ -932,7 +925,7 @@ impl Evaluator {
                 if near & (near - 1) == 0 {
                     let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
                     if o.inner2 < last2 && last2 < o.outer2 {
-                        self.roots(cluster, o);
+                        self.roots(cluster.samples, o);
                         continue;
                     }
                 }
@@ -1045,33 +1038,53 @@ impl Evaluator {
         if !o.settles(centre, LATTICE.spread) {
             return false;
         }
-        for cluster in &CLUSTERS {
-            if cluster.trajectories & allowed == 0 {
-                continue;
-            }
-            self.roots(cluster, o);
+        for region in &REGIONS {
+            self.region_roots(region, o, allowed);
         }
         true
     }
 
-    /// The points of `cluster`'s members and their clearances.
+    /// Every member of every cluster of `region` an allowed trajectory uses (or of every
+    /// cluster, when every trajectory through the region is allowed: one loop over its
+    /// samples) reads its root less the radius of `o` ([`Evaluator::roots`]).
     #[inline(always)]
-    fn members_mut(&mut self, cluster: &Cluster) -> Option<(&'static [[f32; 2]], &mut [f32])> {
-        let start = usize::from(cluster.samples[0]);
-        let end = usize::from(cluster.samples[1]).min(UNIQUE_SAMPLES);
+    fn region_roots(&mut self, region: &Region, o: &Disc, allowed: u64) {
+        if region.trajectories & !allowed == 0 {
+            self.roots(region.samples, o);
+            return;
+        }
+        let clusters = REGION_CLUSTERS
+            .get(usize::from(region.clusters[0])..usize::from(region.clusters[1]))
+            .unwrap_or(&[]);
+        for &i in clusters {
+            let Some(cluster) = CLUSTERS.get(usize::from(i)) else {
+                continue;
+            };
+            if cluster.trajectories & allowed != 0 {
+                self.roots(cluster.samples, o);
+            }
+        }
+    }
+
+    /// The points of the samples `samples[0]..samples[1]` (a cluster's or a region's members)
+    /// and their clearances.
+    #[inline(always)]
+    fn members_mut(&mut self, samples: [u16; 2]) -> Option<(&'static [[f32; 2]], &mut [f32])> {
+        let start = usize::from(samples[0]);
+        let end = usize::from(samples[1]).min(UNIQUE_SAMPLES);
         Some((
             SAMPLE_POINTS.get(start..end)?,
             self.clearance.get_mut(start..end)?,
         ))
     }
 
-    /// Every member of `cluster` reads its root less the radius of `o`: the general loop's
-    /// value where every member is within reach, outside the disc by more than a millimetre
-    /// and nearer than the clip beyond it.
+    /// Every sample of `samples[0]..samples[1]` (a cluster's or a region's members) reads its
+    /// root less the radius of `o`: the general loop's value where every member is within
+    /// reach, outside the disc by more than a millimetre and nearer than the clip beyond it.
     #[inline]
-    fn roots(&mut self, cluster: &Cluster, o: &Disc) {
+    fn roots(&mut self, samples: [u16; 2], o: &Disc) {
         let (ox, oy, radius) = (o.x, o.y, o.radius);
-        let Some((points, clearance)) = self.members_mut(cluster) else {
+        let Some((points, clearance)) = self.members_mut(samples) else {
             return;
         };
         for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
@@ -1090,12 +1103,12 @@ impl Evaluator {
     /// the object's.
     fn one_object(&mut self, cluster: &Cluster, o: &Disc, centre: f32) {
         if o.settles(centre, cluster.spread) {
-            self.roots(cluster, o);
+            self.roots(cluster.samples, o);
             return;
         }
         let spread = cluster.spread + REACH_MARGIN;
         let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
-        let Some((points, clearance)) = self.members_mut(cluster) else {
+        let Some((points, clearance)) = self.members_mut(cluster.samples) else {
             return;
         };
         if centre - spread > radius {
