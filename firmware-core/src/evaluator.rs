@@ -862,9 +862,20 @@ impl Evaluator {
                 // One object alone may be the nearest to some member: where the region is within
                 // its clip and outside its disc, every member reads its root less the radius.
                 let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
-                if o.settles(sqrt(last2), region.spread) {
+                let centre = sqrt(last2);
+                if o.settles(centre, region.spread) {
                     touched |= region.trajectories;
                     self.region_roots(region, o, allowed);
+                    continue;
+                }
+                if region.trajectories & !allowed == 0
+                    && centre - (region.spread + REACH_MARGIN) > o.radius
+                {
+                    // Every member outside the disc by more than a millimetre, some maybe
+                    // beyond the clip, and every trajectory through the region allowed: one
+                    // loop over its samples, as `one_object`'s for a cluster.
+                    touched |= region.trajectories;
+                    self.outside(region.samples, o);
                     continue;
                 }
             }
@@ -1093,6 +1104,28 @@ impl Evaluator {
         }
     }
 
+    /// Every sample of `samples[0]..samples[1]` (a cluster's or a region's members, all outside
+    /// the disc of `o` by more than a millimetre, some maybe beyond the clip) reads the general
+    /// loop's value: no test of the root's sign; a member beyond the reach reads the clip
+    /// without a root (a compare costs less than the root it saves).
+    #[inline(always)]
+    fn outside(&mut self, samples: [u16; 2], o: &Disc) {
+        let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
+        let Some((points, clearance)) = self.members_mut(samples) else {
+            return;
+        };
+        for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
+            let (dx, dy) = (sx - ox, sy - oy);
+            let d2 = dx * dx + dy * dy;
+            // Beyond the reach is beyond the clip by a millimetre: the clip, without a root.
+            *c = if d2 < reach2 {
+                clipped(newton_sqrt(d2) - radius, SEMANTIC_CLIP)
+            } else {
+                SEMANTIC_CLIP
+            };
+        }
+    }
+
     /// The semantic clearance of every member of `cluster` when one object `o` alone can be the
     /// nearest of its class to them. The same values, bit for bit, as the general loop: where the
     /// centre's distance and the spread decide a test for every member at once (each with a 1 mm
@@ -1107,26 +1140,14 @@ impl Evaluator {
             return;
         }
         let spread = cluster.spread + REACH_MARGIN;
+        if centre - spread > o.radius {
+            self.outside(cluster.samples, o);
+            return;
+        }
         let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
         let Some((points, clearance)) = self.members_mut(cluster.samples) else {
             return;
         };
-        if centre - spread > radius {
-            // Outside the disc by more than a millimetre, but some member may be beyond the
-            // clip: no test of the root's sign; a member beyond the reach reads the clip without
-            // a root (a compare costs less than the root it saves).
-            for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
-                let (dx, dy) = (sx - ox, sy - oy);
-                let d2 = dx * dx + dy * dy;
-                // Beyond the reach is beyond the clip by a millimetre: the clip, without a root.
-                *c = if d2 < reach2 {
-                    clipped(newton_sqrt(d2) - radius, SEMANTIC_CLIP)
-                } else {
-                    SEMANTIC_CLIP
-                };
-            }
-            return;
-        }
         if centre + spread < radius {
             // Inside the disc by more than a millimetre: every clearance is 0.
             for c in clearance.iter_mut() {
