@@ -539,7 +539,7 @@ fn main() {
     writeln!(out, "pub const UNIQUE_SAMPLES: usize = {};", points.len()).unwrap();
     writeln!(
         out,
-        "/// The distinct sample points, cluster by cluster (see [`CLUSTERS`])."
+        "/// The distinct sample points, region by region, cluster by cluster (see [`REGIONS`], [`CLUSTERS`])."
     )
     .unwrap();
     writeln!(

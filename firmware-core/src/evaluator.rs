@@ -75,7 +75,18 @@
 //!    farther than for every sample is left out of every cluster's tests, and where one object
 //!    alone is within the clip and outside its disc for every sample, no cluster is tested at
 //!    all; a cluster whose centre's squared distance from a lone object lies in a band set once
-//!    per object for the largest spread takes that loop without the centre's root.
+//!    per object for the largest spread takes that loop without the centre's root. Between the
+//!    two, `build.rs` groups nearby clusters into eight regions (k-means on their centres; the
+//!    samples are numbered region by region, so a region's members are consecutive too), each
+//!    with a centre and a spread, tested before its clusters with the same tests and margins: a
+//!    region out of every object's reach writes the clip into its clusters; where one object
+//!    alone is within reach (or the other is farther for every member, told by the side of
+//!    their bisector, with a bound for the regions' largest spread), and the region is within
+//!    its clip and outside its disc, its clusters take the roots without a test each (one loop
+//!    over the region's samples when every trajectory through it is allowed), and where it is
+//!    outside the disc only, and every trajectory through it allowed, one loop of the cluster's
+//!    outside-the-disc kind runs over its samples; any other region tests its clusters one by
+//!    one.
 //!
 //! Every skipped beam, object or test is provably irrelevant (each decision keeps a 1 mm margin,
 //! far above the rounding of these distances), so pruning changes no result.
@@ -812,7 +823,8 @@ impl Evaluator {
             let clusters = REGION_CLUSTERS
                 .get(usize::from(region.clusters[0])..usize::from(region.clusters[1]))
                 .unwrap_or(&[]);
-            // The objects within reach of some member of the region, as for a cluster below.
+            // The objects within reach of some member of the region, and the one nearest to
+            // every member where two are and their bisector tells, as for a cluster below.
             let [cx, cy] = region.centre;
             let mut near = 0u32;
             let mut last2 = 0.0;
@@ -1042,9 +1054,10 @@ impl Evaluator {
     /// Whether the whole lattice ([`LATTICE`]) is within the clip of `o` and outside its disc
     /// (`centre` the distance from the lattice's centre to the object's; the same tests, with
     /// the same margin, as [`Evaluator::one_object`]'s loop without tests); if so, writes the
-    /// clearance of every member of every cluster an allowed trajectory uses, as that loop
-    /// does (the same values, bit for bit, as the general loop: every member is within reach,
-    /// outside the disc and nearer than the clip beyond it).
+    /// clearance of every member of every cluster an allowed trajectory uses (and of the other
+    /// members of a region whose trajectories are all allowed), as that loop does (the same
+    /// values, bit for bit, as the general loop: every member is within reach, outside the disc
+    /// and nearer than the clip beyond it).
     fn settled(&mut self, o: &Disc, centre: f32, allowed: u64) -> bool {
         if !o.settles(centre, LATTICE.spread) {
             return false;
@@ -1328,7 +1341,9 @@ impl Disc {
 /// MAX_CLUSTER_SPREAD) + 2h`. So `t ≥ need · bound / 4h` gives `|x − b| − |x − a| ≥ need`, with
 /// `need` the difference of radii plus the margin: `(|x − b| − r_b) − (|x − a| − r_a) ≥ 2 mm`.
 /// Every member is within the cluster's spread of its centre, whose `t` is taken once; the
-/// thresholds have a millimetre of slack against rounding.
+/// thresholds have a millimetre of slack against rounding. A region's side is told the same
+/// way, with thresholds of their own: the bound with [`MAX_REGION_SPREAD`] for
+/// `MAX_CLUSTER_SPREAD`.
 struct Bisector {
     /// The midpoint of the centres.
     mid: [f32; 2],
