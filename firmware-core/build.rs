@@ -13,6 +13,10 @@ mod params;
 
 use params::*;
 
+/// Number of regions (groups of nearby clusters) the semantic pass tests before their clusters.
+/// A constant of the evaluator's pruning, not of the lattice: here rather than in params.rs.
+const REGION_COUNT: usize = 8;
+
 /// A point or a displacement of the plane, in f64.
 ///
 /// The build script's own, so that building firmware-core does not compile nalgebra a second
@@ -428,8 +432,8 @@ fn main() {
         todo.push(upper);
         todo.push(members);
     }
-    // Clusters by increasing distance of their centre from the sensor; samples renumbered cluster
-    // by cluster (in their first-appearance order within a cluster).
+    // Clusters by increasing distance of their centre from the sensor (samples renumbered below,
+    // in their first-appearance order within a cluster).
     let rho_of = |c: [f64; 2]| libm::hypot(c[0], c[1]);
     for members in &mut clusters {
         members.sort_unstable();
@@ -439,7 +443,69 @@ fn main() {
             .total_cmp(&rho_of(bounds(b).0))
             .then(a[0].cmp(&b[0]))
     });
-    let order: Vec<usize> = clusters.iter().flatten().copied().collect();
+    // Regions: groups of nearby clusters, which the semantic pass tests as one where it can
+    // (see `Evaluator::semantic`): k-means on the clusters' centres (weighted by their members),
+    // started from the centre farthest from the lattice's and then, one at a time, the centre
+    // farthest from those taken (deterministic), a fixed number of rounds. Each region has the
+    // centre of its members' bounding box and the largest distance of a member from it, rounded
+    // up as a cluster's. Samples are renumbered region by region, then cluster by cluster (in
+    // `REGION_CLUSTERS` order), so that a region's members are consecutive too; `CLUSTERS` keeps
+    // its order (by distance from the sensor).
+    let every: Vec<usize> = (0..points.len()).collect();
+    let (centre, _, _) = bounds(&every);
+    let centres: Vec<[f64; 2]> = clusters.iter().map(|m| bounds(m).0).collect();
+    let d2 = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2);
+    let mut seeds = vec![
+        *centres
+            .iter()
+            .max_by(|a, b| d2(**a, centre).total_cmp(&d2(**b, centre)))
+            .expect("clusters"),
+    ];
+    while seeds.len() < REGION_COUNT.min(centres.len()) {
+        let far = |c: &[f64; 2]| seeds.iter().map(|s| d2(*c, *s)).fold(f64::MAX, f64::min);
+        let next = *centres
+            .iter()
+            .max_by(|a, b| far(a).total_cmp(&far(b)))
+            .expect("clusters");
+        seeds.push(next);
+    }
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for _ in 0..50 {
+        groups = vec![Vec::new(); seeds.len()];
+        for (i, c) in centres.iter().enumerate() {
+            let (g, _) = seeds
+                .iter()
+                .enumerate()
+                .map(|(g, s)| (g, d2(*c, *s)))
+                .fold((0, f64::MAX), |best, x| if x.1 < best.1 { x } else { best });
+            groups[g].push(i);
+        }
+        groups.retain(|g| !g.is_empty());
+        seeds = groups
+            .iter()
+            .map(|g| {
+                let w: f64 = g.iter().map(|&i| clusters[i].len() as f64).sum();
+                let mut m = [0.0; 2];
+                for &i in g {
+                    for k in 0..2 {
+                        m[k] += centres[i][k] * clusters[i].len() as f64 / w;
+                    }
+                }
+                m
+            })
+            .collect();
+    }
+    let order: Vec<usize> = groups
+        .iter()
+        .flatten()
+        .flat_map(|&i| clusters[i].iter().copied())
+        .collect();
+    let mut cluster_start = vec![0usize; clusters.len()];
+    let mut next = 0;
+    for &i in groups.iter().flatten() {
+        cluster_start[i] = next;
+        next += clusters[i].len();
+    }
     assert_eq!(order.len(), points.len());
     let mut renumber = vec![0usize; points.len()];
     for (new, &old) in order.iter().enumerate() {
@@ -473,7 +539,7 @@ fn main() {
     writeln!(out, "pub const UNIQUE_SAMPLES: usize = {};", points.len()).unwrap();
     writeln!(
         out,
-        "/// The distinct sample points, cluster by cluster (see [`CLUSTERS`])."
+        "/// The distinct sample points, region by region, cluster by cluster (see [`REGIONS`], [`CLUSTERS`])."
     )
     .unwrap();
     writeln!(
@@ -682,8 +748,9 @@ fn main() {
     };
     let mut window_pairs = 0usize;
     let mut entries = Vec::new();
-    let mut start = 0usize;
-    for (members, &(centre, spread)) in clusters.iter().zip(cluster_info.iter()) {
+    for ((members, &(centre, spread)), &start) in
+        clusters.iter().zip(cluster_info.iter()).zip(&cluster_start)
+    {
         // Rounded up, so that every member is within `spread` of the f32 centre in f32 too.
         let spread = (spread * (1.0 + 1e-6) + 1e-6) as f32;
         let spread = if (spread as f64) < 0.0 { 0.0 } else { spread };
@@ -695,7 +762,6 @@ fn main() {
             "Cluster {{ centre: [{:?}, {:?}], spread: {:?}, samples: [{start}, {end}], trajectories: {trajectories:#018x}, clip: {clip} }}",
             centre[0] as f32, centre[1] as f32, spread
         ));
-        start = end;
     }
     writeln!(
         out,
@@ -752,6 +818,72 @@ fn main() {
         centre[1] as f32,
         spread,
         points.len()
+    )
+    .unwrap();
+    let mut region_entries = Vec::new();
+    let mut region_clusters = Vec::new();
+    let mut max_region_spread = 0.0f64;
+    let mut start = 0;
+    for g in &groups {
+        let members: Vec<usize> = g
+            .iter()
+            .flat_map(|&i| clusters[i].iter().copied())
+            .collect();
+        let (centre, spread, _) = bounds(&members);
+        max_region_spread = max_region_spread.max(spread);
+        let spread = (spread * (1.0 + 1e-6) + 1e-6) as f32;
+        let first = region_clusters.len();
+        region_clusters.extend_from_slice(g);
+        let end = start + members.len();
+        let trajectories = (start..end).fold(0u64, |m, u| m | trajectories_of[u]);
+        region_entries.push(format!(
+            "Region {{ centre: [{:?}, {:?}], spread: {:?}, samples: [{start}, {end}], clusters: [{first}, {}], trajectories: {trajectories:#018x} }}",
+            centre[0] as f32,
+            centre[1] as f32,
+            spread,
+            region_clusters.len()
+        ));
+        start = end;
+    }
+    assert!(region_clusters.len() == clusters.len() && clusters.len() <= u8::MAX as usize);
+    writeln!(
+        out,
+        "/// Largest distance of a sample from its region's centre (m)."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) const MAX_REGION_SPREAD: f32 = {};",
+        f(max_region_spread * (1.0 + 1e-6) + 1e-6)
+    )
+    .unwrap();
+    writeln!(out, "/// Number of regions.").unwrap();
+    writeln!(
+        out,
+        "pub(crate) const REGION_COUNT: usize = {};",
+        region_entries.len()
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// Groups of nearby clusters (their clusters `REGION_CLUSTERS[clusters[0]..clusters[1]]`)."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static REGIONS: [Region; REGION_COUNT] = [{}];",
+        list(region_entries)
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "/// The clusters (indices into `CLUSTERS`), region by region, increasing within each."
+    )
+    .unwrap();
+    writeln!(
+        out,
+        "pub(crate) static REGION_CLUSTERS: [u8; CLUSTER_COUNT] = [{}];",
+        list(region_clusters.iter().map(|i| i.to_string()).collect())
     )
     .unwrap();
     // Sums along trajectories share their starts: cruise trajectories with the same first

@@ -75,7 +75,18 @@
 //!    farther than for every sample is left out of every cluster's tests, and where one object
 //!    alone is within the clip and outside its disc for every sample, no cluster is tested at
 //!    all; a cluster whose centre's squared distance from a lone object lies in a band set once
-//!    per object for the largest spread takes that loop without the centre's root.
+//!    per object for the largest spread takes that loop without the centre's root. Between the
+//!    two, `build.rs` groups nearby clusters into eight regions (k-means on their centres; the
+//!    samples are numbered region by region, so a region's members are consecutive too), each
+//!    with a centre and a spread, tested before its clusters with the same tests and margins: a
+//!    region out of every object's reach writes the clip into its clusters; where one object
+//!    alone is within reach (or the other is farther for every member, told by the side of
+//!    their bisector, with a bound for the regions' largest spread), and the region is within
+//!    its clip and outside its disc, its clusters take the roots without a test each (one loop
+//!    over the region's samples when every trajectory through it is allowed), and where it is
+//!    outside the disc only, and every trajectory through it allowed, one loop of the cluster's
+//!    outside-the-disc kind runs over its samples; any other region tests its clusters one by
+//!    one.
 //!
 //! Every skipped beam, object or test is provably irrelevant (each decision keeps a 1 mm margin,
 //! far above the rounding of these distances), so pruning changes no result.
@@ -142,9 +153,9 @@ use crate::action::{ActionMask, MAX_ACTIONS};
 use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
 use crate::lattice::{
     BEAM_COS, BEAM_REACH, BEAM_SIN, CLUSTERS, Cluster, END_POINTS, HEAD_COUNT, HEAD_OF, HEADS,
-    LATTICE, MAX_CLUSTER_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE, RANGE_BIN_WIDTH,
-    RANGE_BINS, REACH_MARGIN, ROW_SCALE, Reach, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES,
-    SCAN_BEAMS, TAIL_OF, UNIQUE_SAMPLES,
+    LATTICE, MAX_CLUSTER_SPREAD, MAX_REGION_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE,
+    RANGE_BIN_WIDTH, RANGE_BINS, REACH_MARGIN, REGION_CLUSTERS, REGIONS, ROW_SCALE, Reach, Region,
+    SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS, TAIL_OF, UNIQUE_SAMPLES,
 };
 use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
@@ -817,26 +828,23 @@ impl Evaluator {
             _ => None,
         };
         let mut touched = 0u64;
-        for cluster in &CLUSTERS {
-            // A cluster no allowed trajectory uses is skipped (the sums read no member of it);
-            // in the others every member is written: the clip, or measured (a member only
-            // colliding trajectories use is written and never read: measuring it costs less than
-            // testing it). So every sample an allowed trajectory has is written, without a fill
-            // of every sample.
-            if cluster.trajectories & allowed == 0 {
+        for region in &REGIONS {
+            // A region no allowed trajectory uses is skipped, as its clusters would be.
+            if region.trajectories & allowed == 0 {
                 continue;
             }
-            // The objects within reach of some member of the cluster.
-            let [cx, cy] = cluster.centre;
+            let clusters = REGION_CLUSTERS
+                .get(usize::from(region.clusters[0])..usize::from(region.clusters[1]))
+                .unwrap_or(&[]);
+            // The objects within reach of some member of the region, and the one nearest to
+            // every member where two are and their bisector tells, as for a cluster below.
+            let [cx, cy] = region.centre;
             let mut near = 0u32;
-            // The squared distance from the centre to the last object within reach: the only
-            // one's, when one alone is (its root is the centre's distance below).
             let mut last2 = 0.0;
-            // The first object's, when it is within reach.
             let mut first2 = 0.0;
             for (k, o) in objects.iter().enumerate() {
                 let (dx, dy) = (cx - o.x, cy - o.y);
-                let limit = o.reach + cluster.spread;
+                let limit = o.reach + region.spread;
                 let d2 = dx * dx + dy * dy;
                 if d2 < limit * limit {
                     near |= 1 << k;
@@ -847,10 +855,8 @@ impl Evaluator {
                 }
             }
             if near == 0b11
-                && let Some(side) = pair.as_ref().and_then(|p| p.side(cluster))
+                && let Some(side) = pair.as_ref().and_then(|p| p.side_of_region(region))
             {
-                // One of the two is the nearest to every member: the other is left out, as
-                // `dominant` would leave it out.
                 (near, last2) = if side == 0 {
                     (0b01, first2)
                 } else {
@@ -858,52 +864,137 @@ impl Evaluator {
                 };
             }
             if near == 0 {
-                let start = usize::from(cluster.samples[0]);
-                let end = usize::from(cluster.samples[1]);
-                if let Some(clearance) = self.clearance.get_mut(start..end) {
-                    for c in clearance {
-                        *c = SEMANTIC_CLIP;
+                // No object within reach of any member: every member of a cluster an allowed
+                // trajectory uses reads the clip (as a cluster near no object below).
+                for &i in clusters {
+                    let Some(cluster) = CLUSTERS.get(usize::from(i)) else {
+                        continue;
+                    };
+                    if cluster.trajectories & allowed == 0 {
+                        continue;
                     }
-                }
-                continue;
-            }
-            touched |= cluster.trajectories;
-            if near & (near - 1) == 0 {
-                let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
-                if o.inner2 < last2 && last2 < o.outer2 {
-                    self.roots(cluster, o);
-                    continue;
-                }
-            }
-            let centre;
-            (near, centre) = if near & (near - 1) == 0 {
-                (near, sqrt(last2))
-            } else {
-                dominant(objects, near, cluster)
-            };
-            if near & (near - 1) == 0 {
-                let k = near.trailing_zeros() as usize & (MAX_OBJECTS - 1);
-                self.one_object(cluster, &objects[k], centre);
-                continue;
-            }
-            for u in members(cluster) {
-                let [sx, sy] = SAMPLE_POINTS[u];
-                let mut c = SEMANTIC_CLIP;
-                let mut bits = near;
-                while bits != 0 {
-                    let o = &objects[bits.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
-                    bits &= bits - 1;
-                    let (dx, dy) = (sx - o.x, sy - o.y);
-                    let d2 = dx * dx + dy * dy;
-                    if d2 < o.reach2 {
-                        let d = sqrt(d2) - o.radius;
-                        let d = if d > 0.0 { d } else { 0.0 };
-                        if d < c {
-                            c = d;
+                    let start = usize::from(cluster.samples[0]);
+                    let end = usize::from(cluster.samples[1]);
+                    if let Some(clearance) = self.clearance.get_mut(start..end) {
+                        for c in clearance {
+                            *c = SEMANTIC_CLIP;
                         }
                     }
                 }
-                self.clearance[u] = c;
+                continue;
+            }
+            if near & (near - 1) == 0 {
+                // One object alone may be the nearest to some member: where the region is within
+                // its clip and outside its disc, every member reads its root less the radius.
+                let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                let centre = sqrt(last2);
+                if o.settles(centre, region.spread) {
+                    touched |= region.trajectories;
+                    self.region_roots(region, o, allowed);
+                    continue;
+                }
+                if region.trajectories & !allowed == 0
+                    && centre - (region.spread + REACH_MARGIN) > o.radius
+                {
+                    // Every member outside the disc by more than a millimetre, some maybe
+                    // beyond the clip, and every trajectory through the region allowed: one
+                    // loop over its samples, as `one_object`'s for a cluster.
+                    touched |= region.trajectories;
+                    self.outside(region.samples, o);
+                    continue;
+                }
+            }
+            for &i in clusters {
+                let Some(cluster) = CLUSTERS.get(usize::from(i)) else {
+                    continue;
+                };
+                // A cluster no allowed trajectory uses is skipped (the sums read no member of
+                // it); in the others every member is written: the clip, or measured (a member
+                // only colliding trajectories use is written and never read: measuring it costs
+                // less than testing it). So every sample an allowed trajectory has is written,
+                // without a fill of every sample.
+                if cluster.trajectories & allowed == 0 {
+                    continue;
+                }
+                // The objects within reach of some member of the cluster.
+                let [cx, cy] = cluster.centre;
+                let mut near = 0u32;
+                // The squared distance from the centre to the last object within reach: the only
+                // one's, when one alone is (its root is the centre's distance below).
+                let mut last2 = 0.0;
+                // The first object's, when it is within reach.
+                let mut first2 = 0.0;
+                for (k, o) in objects.iter().enumerate() {
+                    let (dx, dy) = (cx - o.x, cy - o.y);
+                    let limit = o.reach + cluster.spread;
+                    let d2 = dx * dx + dy * dy;
+                    if d2 < limit * limit {
+                        near |= 1 << k;
+                        last2 = d2;
+                        if k == 0 {
+                            first2 = d2;
+                        }
+                    }
+                }
+                if near == 0b11
+                    && let Some(side) = pair.as_ref().and_then(|p| p.side(cluster))
+                {
+                    // One of the two is the nearest to every member: the other is left out, as
+                    // `dominant` would leave it out.
+                    (near, last2) = if side == 0 {
+                        (0b01, first2)
+                    } else {
+                        (0b10, last2)
+                    };
+                }
+                if near == 0 {
+                    let start = usize::from(cluster.samples[0]);
+                    let end = usize::from(cluster.samples[1]);
+                    if let Some(clearance) = self.clearance.get_mut(start..end) {
+                        for c in clearance {
+                            *c = SEMANTIC_CLIP;
+                        }
+                    }
+                    continue;
+                }
+                touched |= cluster.trajectories;
+                if near & (near - 1) == 0 {
+                    let o = &objects[near.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                    if o.inner2 < last2 && last2 < o.outer2 {
+                        self.roots(cluster.samples, o);
+                        continue;
+                    }
+                }
+                let centre;
+                (near, centre) = if near & (near - 1) == 0 {
+                    (near, sqrt(last2))
+                } else {
+                    dominant(objects, near, cluster)
+                };
+                if near & (near - 1) == 0 {
+                    let k = near.trailing_zeros() as usize & (MAX_OBJECTS - 1);
+                    self.one_object(cluster, &objects[k], centre);
+                    continue;
+                }
+                for u in members(cluster) {
+                    let [sx, sy] = SAMPLE_POINTS[u];
+                    let mut c = SEMANTIC_CLIP;
+                    let mut bits = near;
+                    while bits != 0 {
+                        let o = &objects[bits.trailing_zeros() as usize & (MAX_OBJECTS - 1)];
+                        bits &= bits - 1;
+                        let (dx, dy) = (sx - o.x, sy - o.y);
+                        let d2 = dx * dx + dy * dy;
+                        if d2 < o.reach2 {
+                            let d = sqrt(d2) - o.radius;
+                            let d = if d > 0.0 { d } else { 0.0 };
+                            if d < c {
+                                c = d;
+                            }
+                        }
+                    }
+                    self.clearance[u] = c;
+                }
             }
         }
         self.sum_rows(allowed, touched, f, SEMANTIC_CLIP, rows);
@@ -976,45 +1067,88 @@ impl Evaluator {
     /// Whether the whole lattice ([`LATTICE`]) is within the clip of `o` and outside its disc
     /// (`centre` the distance from the lattice's centre to the object's; the same tests, with
     /// the same margin, as [`Evaluator::one_object`]'s loop without tests); if so, writes the
-    /// clearance of every member of every cluster an allowed trajectory uses, as that loop
-    /// does (the same values, bit for bit, as the general loop: every member is within reach,
-    /// outside the disc and nearer than the clip beyond it).
+    /// clearance of every member of every cluster an allowed trajectory uses (and of the other
+    /// members of a region whose trajectories are all allowed), as that loop does (the same
+    /// values, bit for bit, as the general loop: every member is within reach, outside the disc
+    /// and nearer than the clip beyond it).
     fn settled(&mut self, o: &Disc, centre: f32, allowed: u64) -> bool {
         if !o.settles(centre, LATTICE.spread) {
             return false;
         }
-        for cluster in &CLUSTERS {
-            if cluster.trajectories & allowed == 0 {
-                continue;
-            }
-            self.roots(cluster, o);
+        for region in &REGIONS {
+            self.region_roots(region, o, allowed);
         }
         true
     }
 
-    /// The points of `cluster`'s members and their clearances.
+    /// Every member of every cluster of `region` an allowed trajectory uses (or of every
+    /// cluster, when every trajectory through the region is allowed: one loop over its
+    /// samples) reads its root less the radius of `o` ([`Evaluator::roots`]).
     #[inline(always)]
-    fn members_mut(&mut self, cluster: &Cluster) -> Option<(&'static [[f32; 2]], &mut [f32])> {
-        let start = usize::from(cluster.samples[0]);
-        let end = usize::from(cluster.samples[1]).min(UNIQUE_SAMPLES);
+    fn region_roots(&mut self, region: &Region, o: &Disc, allowed: u64) {
+        if region.trajectories & !allowed == 0 {
+            self.roots(region.samples, o);
+            return;
+        }
+        let clusters = REGION_CLUSTERS
+            .get(usize::from(region.clusters[0])..usize::from(region.clusters[1]))
+            .unwrap_or(&[]);
+        for &i in clusters {
+            let Some(cluster) = CLUSTERS.get(usize::from(i)) else {
+                continue;
+            };
+            if cluster.trajectories & allowed != 0 {
+                self.roots(cluster.samples, o);
+            }
+        }
+    }
+
+    /// The points of the samples `samples[0]..samples[1]` (a cluster's or a region's members)
+    /// and their clearances.
+    #[inline(always)]
+    fn members_mut(&mut self, samples: [u16; 2]) -> Option<(&'static [[f32; 2]], &mut [f32])> {
+        let start = usize::from(samples[0]);
+        let end = usize::from(samples[1]).min(UNIQUE_SAMPLES);
         Some((
             SAMPLE_POINTS.get(start..end)?,
             self.clearance.get_mut(start..end)?,
         ))
     }
 
-    /// Every member of `cluster` reads its root less the radius of `o`: the general loop's
-    /// value where every member is within reach, outside the disc by more than a millimetre
-    /// and nearer than the clip beyond it.
+    /// Every sample of `samples[0]..samples[1]` (a cluster's or a region's members) reads its
+    /// root less the radius of `o`: the general loop's value where every member is within
+    /// reach, outside the disc by more than a millimetre and nearer than the clip beyond it.
     #[inline]
-    fn roots(&mut self, cluster: &Cluster, o: &Disc) {
+    fn roots(&mut self, samples: [u16; 2], o: &Disc) {
         let (ox, oy, radius) = (o.x, o.y, o.radius);
-        let Some((points, clearance)) = self.members_mut(cluster) else {
+        let Some((points, clearance)) = self.members_mut(samples) else {
             return;
         };
         for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
             let (dx, dy) = (sx - ox, sy - oy);
             *c = newton_sqrt(dx * dx + dy * dy) - radius;
+        }
+    }
+
+    /// Every sample of `samples[0]..samples[1]` (a cluster's or a region's members, all outside
+    /// the disc of `o` by more than a millimetre, some maybe beyond the clip) reads the general
+    /// loop's value: no test of the root's sign; a member beyond the reach reads the clip
+    /// without a root (a compare costs less than the root it saves).
+    #[inline(always)]
+    fn outside(&mut self, samples: [u16; 2], o: &Disc) {
+        let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
+        let Some((points, clearance)) = self.members_mut(samples) else {
+            return;
+        };
+        for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
+            let (dx, dy) = (sx - ox, sy - oy);
+            let d2 = dx * dx + dy * dy;
+            // Beyond the reach is beyond the clip by a millimetre: the clip, without a root.
+            *c = if d2 < reach2 {
+                clipped(newton_sqrt(d2) - radius, SEMANTIC_CLIP)
+            } else {
+                SEMANTIC_CLIP
+            };
         }
     }
 
@@ -1028,30 +1162,18 @@ impl Evaluator {
     /// the object's.
     fn one_object(&mut self, cluster: &Cluster, o: &Disc, centre: f32) {
         if o.settles(centre, cluster.spread) {
-            self.roots(cluster, o);
+            self.roots(cluster.samples, o);
             return;
         }
         let spread = cluster.spread + REACH_MARGIN;
-        let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
-        let Some((points, clearance)) = self.members_mut(cluster) else {
-            return;
-        };
-        if centre - spread > radius {
-            // Outside the disc by more than a millimetre, but some member may be beyond the
-            // clip: no test of the root's sign; a member beyond the reach reads the clip without
-            // a root (a compare costs less than the root it saves).
-            for (c, &[sx, sy]) in clearance.iter_mut().zip(points) {
-                let (dx, dy) = (sx - ox, sy - oy);
-                let d2 = dx * dx + dy * dy;
-                // Beyond the reach is beyond the clip by a millimetre: the clip, without a root.
-                *c = if d2 < reach2 {
-                    clipped(newton_sqrt(d2) - radius, SEMANTIC_CLIP)
-                } else {
-                    SEMANTIC_CLIP
-                };
-            }
+        if centre - spread > o.radius {
+            self.outside(cluster.samples, o);
             return;
         }
+        let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
+        let Some((points, clearance)) = self.members_mut(cluster.samples) else {
+            return;
+        };
         if centre + spread < radius {
             // Inside the disc by more than a millimetre: every clearance is 0.
             for c in clearance.iter_mut() {
@@ -1232,7 +1354,9 @@ impl Disc {
 /// MAX_CLUSTER_SPREAD) + 2h`. So `t ≥ need · bound / 4h` gives `|x − b| − |x − a| ≥ need`, with
 /// `need` the difference of radii plus the margin: `(|x − b| − r_b) − (|x − a| − r_a) ≥ 2 mm`.
 /// Every member is within the cluster's spread of its centre, whose `t` is taken once; the
-/// thresholds have a millimetre of slack against rounding.
+/// thresholds have a millimetre of slack against rounding. A region's side is told the same
+/// way, with thresholds of their own: the bound with [`MAX_REGION_SPREAD`] for
+/// `MAX_CLUSTER_SPREAD`.
 struct Bisector {
     /// The midpoint of the centres.
     mid: [f32; 2],
@@ -1242,6 +1366,10 @@ struct Bisector {
     a_wins: f32,
     /// The least `−t` of every member for `b` alone.
     b_wins: f32,
+    /// `a_wins` for a region (the bound with [`MAX_REGION_SPREAD`]).
+    a_wins_region: f32,
+    /// `b_wins` for a region.
+    b_wins_region: f32,
 }
 
 impl Bisector {
@@ -1255,9 +1383,9 @@ impl Bisector {
         }
         let h = 0.5 * d;
         let margin = 2.0 * REACH_MARGIN;
-        let threshold = |near: &Disc, far: &Disc| {
+        let threshold = |near: &Disc, far: &Disc, spread: f32| {
             let need = far.radius - near.radius + margin;
-            let bound = 2.0 * (near.reach + 2.0 * MAX_CLUSTER_SPREAD) + 2.0 * h;
+            let bound = 2.0 * (near.reach + 2.0 * spread) + 2.0 * h;
             let t = if need > 0.0 {
                 need * bound / (4.0 * h)
             } else {
@@ -1269,8 +1397,10 @@ impl Bisector {
         Some(Self {
             mid: [0.5 * (a.x + b.x), 0.5 * (a.y + b.y)],
             normal: [dx / d, dy / d],
-            a_wins: threshold(a, b),
-            b_wins: threshold(b, a),
+            a_wins: threshold(a, b, MAX_CLUSTER_SPREAD),
+            b_wins: threshold(b, a, MAX_CLUSTER_SPREAD),
+            a_wins_region: threshold(a, b, MAX_REGION_SPREAD),
+            b_wins_region: threshold(b, a, MAX_REGION_SPREAD),
         })
     }
 
@@ -1278,11 +1408,29 @@ impl Bisector {
     /// if the bound cannot tell.
     #[inline(always)]
     fn side(&self, cluster: &Cluster) -> Option<u32> {
-        let [cx, cy] = cluster.centre;
+        self.side_at(cluster.centre, cluster.spread, self.a_wins, self.b_wins)
+    }
+
+    /// [`Bisector::side`] for every member of `region` (both objects within reach of it).
+    #[inline(always)]
+    fn side_of_region(&self, region: &Region) -> Option<u32> {
+        self.side_at(
+            region.centre,
+            region.spread,
+            self.a_wins_region,
+            self.b_wins_region,
+        )
+    }
+
+    /// [`Bisector::side`] for the points within `spread` of `centre`, with the thresholds
+    /// `a_wins` and `b_wins` made for that spread.
+    #[inline(always)]
+    fn side_at(&self, centre: [f32; 2], spread: f32, a_wins: f32, b_wins: f32) -> Option<u32> {
+        let [cx, cy] = centre;
         let t = (cx - self.mid[0]) * self.normal[0] + (cy - self.mid[1]) * self.normal[1];
-        if t - cluster.spread >= self.a_wins {
+        if t - spread >= a_wins {
             Some(0)
-        } else if -t - cluster.spread >= self.b_wins {
+        } else if -t - spread >= b_wins {
             Some(1)
         } else {
             None

@@ -184,6 +184,23 @@ pub(crate) struct Cluster {
     pub(crate) clip: Reach,
 }
 
+/// Nearby clusters, which the semantic pass tests as one where it can: the clusters
+/// `REGION_CLUSTERS[clusters[0]..clusters[1]]`, whose members are the samples
+/// `samples[0]..samples[1]`, all within `spread` of `centre`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Region {
+    /// The centre, `[x, y]` (m).
+    pub(crate) centre: [f32; 2],
+    /// Largest distance of a member from the centre (m), rounded up.
+    pub(crate) spread: f32,
+    /// The members of its clusters: sample indices `samples[0]..samples[1]`.
+    pub(crate) samples: [u16; 2],
+    /// Its clusters: `REGION_CLUSTERS[clusters[0]..clusters[1]]`.
+    pub(crate) clusters: [u8; 2],
+    /// The trajectories some member belongs to, one bit per action.
+    pub(crate) trajectories: u64,
+}
+
 include!(concat!(env!("OUT_DIR"), "/lattice_tables.rs"));
 
 /// The trajectory of action `a`.
@@ -313,13 +330,39 @@ mod tests {
         let memberships: u32 = SAMPLE_TRAJECTORIES.iter().map(|m| m.count_ones()).sum();
         let samples: usize = all().map(|(_, t)| t.samples().len()).sum();
         assert_eq!(memberships as usize, samples);
-        let mut next = 0;
         let mut pairs = 0;
         let beams = |r: &Reach| (r.window[0].count_ones() + r.window[1].count_ones()) as usize;
+        // Regions tile the samples, and their clusters tile the region's samples, in
+        // `REGION_CLUSTERS` order; every cluster is in one region.
+        let mut next = 0;
+        let mut seen = [false; CLUSTERS.len()];
+        for r in &REGIONS {
+            let [start, end] = r.samples.map(usize::from);
+            assert!(start == next && start < end, "regions tile the samples");
+            let mut member = start;
+            let mut trajectories = 0;
+            for &i in &REGION_CLUSTERS[usize::from(r.clusters[0])..usize::from(r.clusters[1])] {
+                let c = &CLUSTERS[usize::from(i)];
+                assert!(!seen[usize::from(i)]);
+                seen[usize::from(i)] = true;
+                let [s, e] = c.samples.map(usize::from);
+                assert!(s == member && s < e, "clusters tile their region's samples");
+                member = e;
+                trajectories |= c.trajectories;
+            }
+            assert_eq!(member, end);
+            assert_eq!(trajectories, r.trajectories);
+            for u in start..end {
+                let [x, y] = SAMPLE_POINTS[u];
+                let d = libm::hypotf(x - r.centre[0], y - r.centre[1]);
+                assert!(d <= r.spread && r.spread <= MAX_REGION_SPREAD, "{u}");
+            }
+            next = end;
+        }
+        assert_eq!(next, UNIQUE_SAMPLES);
+        assert!(seen.iter().all(|&s| s));
         for c in &CLUSTERS {
             let [start, end] = c.samples.map(usize::from);
-            assert!(start == next && start < end, "clusters tile the samples");
-            next = end;
             let mut trajectories = 0;
             for u in start..end {
                 let [x, y] = SAMPLE_POINTS[u];
@@ -332,7 +375,6 @@ mod tests {
             assert!(usize::from(c.clip.bins[1]) <= RANGE_BINS);
             pairs += beams(&c.clip) * (end - start);
         }
-        assert_eq!(next, UNIQUE_SAMPLES);
         assert_eq!(pairs, WINDOW_PAIRS);
     }
 }
