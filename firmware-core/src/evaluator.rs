@@ -44,17 +44,17 @@
 //!
 //! 1. the 565 samples of the lattice are only 351 distinct points (trajectories share their
 //!    starts), measured once each, and sums along trajectories share their common heads;
-//! 2. `build.rs` groups nearby samples into clusters (every member within 0.1 m of the
+//! 2. `build.rs` groups nearby samples into clusters (every member within 0.12 m of the
 //!    cluster's centre; the samples at the same arc length of trajectories that start
 //!    together lie on a short arc). For a centre at range `ρ` and bearing `α`, a scan point on the
 //!    beam at bearing `β` is at least `ρ·sin|α − β|` away (at least `ρ` beyond 90°), and at least
 //!    `|r − ρ|` for a range `r`: at compile time each cluster gets the window of beams within
 //!    `asin(d/ρ)` of `α` (with a 0.01 rad margin) and the band of range bins within `d` of `ρ`,
-//!    for `d` = the 0.5 m clip + the spread. Each tick sorts the beams into range bins once,
-//!    leaving out every beam longer than its own reach (`build.rs`: the farthest range at which
-//!    that beam's point comes within the clip of some sample), which is never looked at again,
-//!    and a cluster's candidates are its window ANDed with its band: two 32-bit masks. In open
-//!    space no beam is within reach and the obstacle pass ends there;
+//!    for `d` = the 0.5 m clip + the spread. Each tick sorts the beams into range bins (0.15 m
+//!    wide) once, leaving out every beam longer than its own reach (`build.rs`: the farthest
+//!    range at which that beam's point comes within the clip of some sample), which is never
+//!    looked at again, and a cluster's candidates are its window ANDed with its band: two 32-bit
+//!    masks. In open space no beam is within reach and the obstacle pass ends there;
 //! 3. from the cluster's centre, with `m` the distance to its nearest candidate and `s` the
 //!    spread, every member is within `m + s` of that point, so a point farther than `m + 2s`
 //!    from the centre is nobody's nearest: the members measure only the candidates within
@@ -421,7 +421,7 @@ impl Evaluator {
         // Beams within reach of some sample, binned by range (bin b holding [b·w, (b+1)·w)) into
         // `shorter[b + 1]`, then accumulated in place: `shorter[b]` holds the bins below b.
         // Longer beams are never looked at. (In place rather than in a local array of bins:
-        // 504 bytes less on the stack of the evaluation.)
+        // `RANGE_BINS` × 8 bytes less on the stack of the evaluation.)
         let (head, bins) = shorter.split_at_mut(1);
         let bins = &mut bins[..RANGE_BINS];
         head[0] = [0; 2];
