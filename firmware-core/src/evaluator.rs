@@ -44,7 +44,7 @@
 //!
 //! 1. the 565 samples of the lattice are only 351 distinct points (trajectories share their
 //!    starts), measured once each, and sums along trajectories share their common heads;
-//! 2. `build.rs` groups nearby samples into clusters (every member within 0.12 m of the
+//! 2. `build.rs` groups nearby samples into clusters (every member within 0.15 m of the
 //!    cluster's centre; the samples at the same arc length of trajectories that start
 //!    together lie on a short arc). For a centre at range `ρ` and bearing `α`, a scan point on the
 //!    beam at bearing `β` is at least `ρ·sin|α − β|` away (at least `ρ` beyond 90°), and at least
