@@ -5,7 +5,7 @@
 //! retransmission) is still judged against the tick it refers to.
 //!
 //! [`Agent::act`] checks the observation once and evaluates the checked one with the
-//! [`Evaluator`] it keeps (3 328 bytes of scratch, reused from tick to tick: a fresh one gives
+//! [`Evaluator`] it keeps (2 944 bytes of scratch, reused from tick to tick: a fresh one gives
 //! the same bits, and a kept one is not zeroed at every act). In a process where
 //! someone else evaluated the same observation already (the host's teacher),
 //! [`Agent::act_evaluated`] takes that [`Evaluation`] instead.
@@ -120,7 +120,7 @@ impl TickRecord {
 }
 
 /// Learner, recent ticks and the evaluator's scratch: everything the car keeps between ticks,
-/// 9 720 bytes (the learner and the last ticks 6 392, the scratch 3 328; off the car each tick
+/// 9 336 bytes (the learner and the last ticks 6 392, the scratch 2 944; off the car each tick
 /// also keeps select's scores, 1 KiB more, and its table's columns, 1.5 KiB more: see
 /// [`FeatureTable`]).
 ///

@@ -79,8 +79,8 @@
 //! ## Memory and time
 //!
 //! Nothing is allocated; everything lives in the caller's statics or stack. An [`agent::Agent`]
-//! is 9 720 bytes on the car: the learner (under 100 B), the feature tables of the last four
-//! ticks (1.5 KiB each) and its evaluator's scratch (3 328 bytes, reused from tick to tick);
+//! is 9 336 bytes on the car: the learner (under 100 B), the feature tables of the last four
+//! ticks (1.5 KiB each) and its evaluator's scratch (2 944 bytes, reused from tick to tick);
 //! off the car each tick also keeps select's 64 scores. The lattice and the evaluator's
 //! precomputed tables are `static` data in flash.
 //!
