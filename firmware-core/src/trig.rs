@@ -603,6 +603,49 @@ mod tests {
         assert!(sincosf(f32::NAN).0.is_nan() && sincosf(f32::NAN).1.is_nan());
     }
 
+    /// [`Soft`]'s operations against the native ones beyond the kernels' operands: random
+    /// normal operands of either sign within 2^±60, their significands often short (exact
+    /// results and ties to even), shifted far apart and close together.
+    #[test]
+    fn soft_ops_are_native_on_random_operands() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        let mut operand = || {
+            let sign = u64::from(rng.random_range(0..2u32));
+            let exponent = rng.random_range(1023 - 60..=1023 + 60u64);
+            let zeros = rng.random_range(0..=52u32);
+            let fraction = ((rng.random_range(0..=u64::MAX) & FRACTION) >> zeros) << zeros;
+            f64::from_bits((sign << 63) | (exponent << 52) | fraction)
+        };
+        let exponent = |x: f64| (x.to_bits() >> 52) & 0x7ff;
+        for _ in 0..300_000 {
+            let (a, b) = (operand(), operand());
+            assert_eq!(
+                soft_mul(a.to_bits(), b.to_bits()),
+                (a * b).to_bits(),
+                "{a:e} * {b:e}"
+            );
+            if a + b != 0.0 {
+                assert_eq!(
+                    soft_add(a.to_bits(), b.to_bits()),
+                    (a + b).to_bits(),
+                    "{a:e} + {b:e}"
+                );
+            }
+            if exponent(b) + 2 <= exponent(a) {
+                let sum = soft_add_small(a.to_bits(), b.to_bits());
+                assert_eq!(sum, (a + b).to_bits(), "{a:e} + {b:e}");
+            }
+            assert_eq!(
+                Soft(a.to_bits()).to_f32().to_bits(),
+                (a as f32).to_bits(),
+                "{a:e}"
+            );
+            let x = a as f32;
+            assert_eq!(Soft::from_f32(x).0, f64::from(x).to_bits(), "{x:e}");
+        }
+    }
+
     /// The car's reduction beyond 5π/4 with [`Soft`]'s operations: each the native one's bits
     /// (a sample up to 2⁵³, both signs), within 2·10⁻⁷ of `libm::sincosf` up to 10⁶ (1.2·10⁻⁷
     /// on this sample: `x − 2πn` rounded to `f32`), NaN from 2⁵³ on.
