@@ -13,6 +13,20 @@
 //! 5π/4, where no validated heading goes, the host takes `libm::sincosf` itself (so the same bits
 //! everywhere) and the car reduces by 2π once (see [`sincosf`]).
 //!
+//! The car's `f64` arithmetic is `Soft`'s: its FPU (a Cortex-M4F's) has single precision only,
+//! and compiler_builtins' `__muldf3` and `__adddf3` (some 87 and 109 instructions a call, for
+//! every operand: zeros, subnormals, infinities, NaNs) were about 2.2 K instructions of the worst
+//! real tick. `Soft` works on an `f64`'s bits with integer operations (the significands'
+//! product from four 32×32→64-bit multiplications, `umull` on the car) for the operands the
+//! kernels and reductions meet, normal and with nonzero normal results, rounded to nearest, ties
+//! to even: the same bits as the native operations, every operation of every argument of the
+//! range checked against the native one bit for bit by the same exhaustive test (the kernels
+//! are generic over `Double`; the test runs them with both at once), beside the sampled test
+//! and a random one beyond the kernels' operands. The host keeps the native `f64` (the same
+//! bits, faster there). The kernels share `z = x·x` and `w = z·z` (the same values as each
+//! computes them), and the sums of the kernels, each of whose second term is below a quarter of
+//! its first, normalise by two bits at most (`Double::add_small`).
+//!
 //! The code below is adapted from the `libm` crate 0.2.16 (`src/math/sincosf.rs`, `k_sinf.rs`,
 //! `k_cosf.rs`; <https://github.com/rust-lang/compiler-builtins>), which carries this notice:
 //!
@@ -62,9 +76,10 @@ const NEAR_BITS: u32 = 0x407b_53d1;
 ///
 /// Beyond 5π/4 (never a validated heading): on the host `libm::sincosf` itself, so the same bits
 /// for every `x`; on the car (`target_arch = "arm"`, where `libm`'s large-argument reduction is
-/// what this function leaves out) one reduction by 2π in `f64` and the same branches, within a
-/// few `f32` ulps of `sin` and `cos` up to |x| ≈ 10⁶, and NaN for an infinity, a NaN or an `x`
-/// beyond 2⁵¹·2π (debug builds assert that the car never gets there).
+/// what this function leaves out) one reduction by 2π in `f64` and the same branches, within
+/// 2·10⁻⁷ of `sin` and `cos` up to |x| ≈ 10⁶ (the reduced argument is rounded to `f32`; ulps
+/// near a zero of either), and NaN for an infinity, a NaN or |x| ≥ 2⁵³ (debug builds assert
+/// that the car never gets there).
 ///
 /// [`Observation::check`]: crate::observation::Observation::check
 #[inline]
