@@ -573,7 +573,8 @@ mod tests {
             .find(|&x| !same(x))
     }
 
-    /// A dense sample of the range (every 1021st `f32`, both signs) and its edges.
+    /// A dense sample of the range (every 1021st `f32`, both signs) and its edges, the host's
+    /// path and the car's ([`same`]).
     #[test]
     fn sincosf_is_libms_on_a_sample() {
         assert_eq!(first_mismatch(1021), None);
@@ -693,7 +694,8 @@ mod tests {
     }
 
     /// Every `f32` of the copied branches (|x| ≲ 5π/4, both signs, some 2.16e9 of them, every
-    /// heading `Observation::check` admits among them), on every core: `cargo test -p
+    /// heading `Observation::check` admits among them), on every core, the host's path and the
+    /// car's, each of [`Soft`]'s operations against the native one ([`same`]): `cargo test -p
     /// firmware-core --release --lib -- --ignored sincosf_exhaustive`.
     #[test]
     #[ignore]
