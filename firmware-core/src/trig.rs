@@ -13,6 +13,20 @@
 //! 5π/4, where no validated heading goes, the host takes `libm::sincosf` itself (so the same bits
 //! everywhere) and the car reduces by 2π once (see [`sincosf`]).
 //!
+//! The car's `f64` arithmetic is `Soft`'s: its FPU (a Cortex-M4F's) has single precision only,
+//! and compiler_builtins' `__muldf3` and `__adddf3` (some 87 and 109 instructions a call, for
+//! every operand: zeros, subnormals, infinities, NaNs) were about 2.2 K instructions of the worst
+//! real tick. `Soft` works on an `f64`'s bits with integer operations (the significands'
+//! product from four 32×32→64-bit multiplications, `umull` on the car) for the operands the
+//! kernels and reductions meet, normal and with nonzero normal results, rounded to nearest, ties
+//! to even: the same bits as the native operations, every operation of every argument of the
+//! range checked against the native one bit for bit by the same exhaustive test (the kernels
+//! are generic over `Double`; the test runs them with both at once), beside the sampled test
+//! and a random one beyond the kernels' operands. The host keeps the native `f64` (the same
+//! bits, faster there). The kernels share `z = x·x` and `w = z·z` (the same values as each
+//! computes them), and the sums of the kernels, each of whose second term is below a quarter of
+//! its first, normalise by two bits at most (`Double::add_small`).
+//!
 //! The code below is adapted from the `libm` crate 0.2.16 (`src/math/sincosf.rs`, `k_sinf.rs`,
 //! `k_cosf.rs`; <https://github.com/rust-lang/compiler-builtins>), which carries this notice:
 //!
@@ -62,51 +76,58 @@ const NEAR_BITS: u32 = 0x407b_53d1;
 ///
 /// Beyond 5π/4 (never a validated heading): on the host `libm::sincosf` itself, so the same bits
 /// for every `x`; on the car (`target_arch = "arm"`, where `libm`'s large-argument reduction is
-/// what this function leaves out) one reduction by 2π in `f64` and the same branches, within a
-/// few `f32` ulps of `sin` and `cos` up to |x| ≈ 10⁶, and NaN for an infinity, a NaN or an `x`
-/// beyond 2⁵¹·2π (debug builds assert that the car never gets there).
+/// what this function leaves out) one reduction by 2π in `f64` and the same branches, within
+/// 2·10⁻⁷ of `sin` and `cos` up to |x| ≈ 10⁶ (the reduced argument is rounded to `f32`; ulps
+/// near a zero of either), and NaN for an infinity, a NaN or |x| ≥ 2⁵³ (debug builds assert
+/// that the car never gets there).
 ///
 /// [`Observation::check`]: crate::observation::Observation::check
 #[inline]
 pub fn sincosf(x: f32) -> (f32, f32) {
     let ix = x.to_bits() & 0x7fff_ffff;
-    if ix <= NEAR_BITS { near(x, ix) } else { far(x) }
+    if ix <= NEAR_BITS {
+        near::<Car>(x, ix)
+    } else {
+        far(x)
+    }
 }
 
 /// `libm::sincosf`'s branches for |x| ~<= 5π/4, `ix` the bits of |x|: the same kernels on the
 /// same `f64` argument, their results put in place as `libm` does in each branch (each kernel
-/// written once, so inlined once). `libm` also makes the tiny arguments raise the inexact and
-/// underflow flags, which Rust cannot read.
+/// written once, so inlined once), the `f64` operations those of `D` ([`Double`]: the native
+/// ones, or [`Soft`]'s, the same bits). `libm` also makes the tiny arguments raise the inexact
+/// and underflow flags, which Rust cannot read.
 #[inline]
-fn near(x: f32, ix: u32) -> (f32, f32) {
+fn near<D: Double>(x: f32, ix: u32) -> (f32, f32) {
     let sign = (x.to_bits() >> 31) != 0;
 
     /* |x| < 2**-12 */
     if ix < 0x3980_0000 {
         return (x, 1.0);
     }
-    let x64 = x as f64;
-    // The kernels' argument, and which branch of `libm`'s took it.
+    let x64 = D::from_f32(x);
+    // The kernels' argument, and which branch of `libm`'s took it. Every reduction is exact
+    // (Sterbenz: |x| lies within [c/2, 2c] of the multiple c of π/2 it is taken from) and
+    // nonzero (no `f32` is π/2 or π rounded to `f64`).
     let (y, branch) = if ix <= 0x3f49_0fda {
         /* |x| ~<= pi/4 */
         (x64, Branch::Quarter)
     } else if ix <= 0x4016_cbe3 {
         /* |x| ~<= 3pi/4 */
         if sign {
-            (x64 + S1PIO2, Branch::MinusHalf)
+            (x64.add(D::of(S1PIO2)), Branch::MinusHalf)
         } else {
-            (S1PIO2 - x64, Branch::PlusHalf)
+            (D::of(S1PIO2).sub(x64), Branch::PlusHalf)
         }
     }
     /* |x| ~<= 5*pi/4 */
     /* -sin(x+c) is not correct if x+c could be 0: -0 vs +0 */
     else if sign {
-        (x64 + S2PIO2, Branch::Whole)
+        (x64.add(D::of(S2PIO2)), Branch::Whole)
     } else {
-        (x64 - S2PIO2, Branch::Whole)
+        (x64.sub(D::of(S2PIO2)), Branch::Whole)
     };
-    let s = k_sinf(y);
-    let c = k_cosf(y);
+    let (s, c) = kernels(y);
     match branch {
         Branch::Quarter => (s, c),
         Branch::PlusHalf => (c, s),
@@ -136,23 +157,44 @@ fn far(x: f32) -> (f32, f32) {
     libm::sincosf(x)
 }
 
-/// |x| beyond 5π/4 on the car, which a validated heading never reaches: `x − 2πn` for the
-/// nearest integer `n` (in `f64`, `libm`'s rounding trick of `rem_pio2f`), then the branches
-/// above; NaN where that cannot bring it within 5π/4 (an infinity, a NaN, |x| ≳ 2⁵¹·2π).
+/// |x| beyond 5π/4 on the car, which a validated heading never reaches: [`reduce_far`] with
+/// [`Soft`]'s operations.
 #[cfg(target_arch = "arm")]
 #[cold]
 #[inline(never)]
 fn far(x: f32) -> (f32, f32) {
+    debug_assert!(false, "sincosf beyond 5π/4 on the car: {x}");
+    reduce_far::<Car>(x)
+}
+
+/// |x| beyond 5π/4 on the car: `x − 2πn` for the nearest integer `n` (in `f64`, `libm`'s
+/// rounding trick of `rem_pio2f`), then the branches above; NaN where that cannot bring it
+/// within 5π/4, and for an infinity, a NaN or |x| ≥ 2⁵³ (where `n` would no longer be an
+/// integer). Every operation's result is a nonzero normal number, as [`Soft`]'s need: |x| >
+/// 3.9 makes |n| ≥ 1, |x/(2π)| < 2⁵¹ keeps `x/(2π) + 1.5·2⁵²` from 0, and `x − 2πn` is either 0
+/// (returned first) or a difference of `f64`s of magnitude ≥ 3.9, at least 2⁻⁵⁰.
+#[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
+#[inline]
+fn reduce_far<D: Double>(x: f32) -> (f32, f32) {
     /// 1/(2π) and 1.5·2⁵²: adding and taking off the latter rounds to an integer.
     const INV_2PI: f64 = 0.159_154_943_091_895_35;
     const TOINT: f64 = 1.5 / f64::EPSILON;
-    debug_assert!(false, "sincosf beyond 5π/4 on the car: {x}");
-    let x64 = x as f64;
-    let n = (x64 * INV_2PI + TOINT) - TOINT;
-    let y = (x64 - n * (2.0 * S2PIO2)) as f32;
+    let ix = x.to_bits() & 0x7fff_ffff;
+    debug_assert!(ix > NEAR_BITS);
+    // 2⁵³ (an infinity and a NaN beyond).
+    if ix >= 0x5a00_0000 {
+        return (f32::NAN, f32::NAN);
+    }
+    let x64 = D::from_f32(x);
+    let n = x64.mul(D::of(INV_2PI)).add(D::of(TOINT)).sub(D::of(TOINT));
+    let n2pi = n.mul(D::of(2.0 * S2PIO2));
+    if n2pi.to_bits() == x64.to_bits() {
+        return (0.0, 1.0);
+    }
+    let y = x64.sub(n2pi).to_f32();
     let iy = y.to_bits() & 0x7fff_ffff;
     if iy <= NEAR_BITS {
-        near(y, iy)
+        near::<D>(y, iy)
     } else {
         (f32::NAN, f32::NAN)
     }
@@ -164,14 +206,25 @@ const S2: f64 = 0.0083333293858894631756; /*  0x111110896efbb2.0p-59 */
 const S3: f64 = -0.000198393348360966317347; /* -0x1a00f9e2cae774.0p-65 */
 const S4: f64 = 0.0000027183114939898219064; /*  0x16cd878c3b46a7.0p-71 */
 
-/// `libm`'s `k_sinf`: sin on [-π/4, π/4] in `f64`, rounded once to `f32`.
+/// `libm`'s `k_sinf` and `k_cosf` of the same argument `x`, their `z = x * x` and `w = z * z`
+/// computed once (the same values as each computes them).
 #[inline(never)]
-fn k_sinf(x: f64) -> f32 {
-    let z = x * x;
-    let w = z * z;
-    let r = S3 + z * S4;
-    let s = z * x;
-    ((x + s * (S1 + z * S2)) + s * w * r) as f32
+fn kernels<D: Double>(x: D) -> (f32, f32) {
+    let z = x.mul(x);
+    let w = z.mul(z);
+    (k_sinf(x, z, w), k_cosf(z, w))
+}
+
+/// `libm`'s `k_sinf`: sin on [-π/4, π/4] in `f64`, rounded once to `f32`: `((x + s * (S1 + z *
+/// S2)) + s * w * r) as f32` with `z = x * x`, `w = z * z`, `r = S3 + z * S4`, `s = z * x`.
+/// Each sum's second term is below a quarter of its first ([`Double::add_small`]).
+#[inline]
+fn k_sinf<D: Double>(x: D, z: D, w: D) -> f32 {
+    let r = D::of(S3).add_small(z.mul(D::of(S4)));
+    let s = z.mul(x);
+    (x.add_small(s.mul(D::of(S1).add_small(z.mul(D::of(S2))))))
+        .add_small(s.mul(w).mul(r))
+        .to_f32()
 }
 
 /* |cos(x) - c(x)| < 2**-34.1 (~[-5.37e-11, 5.295e-11]). */
@@ -180,13 +233,264 @@ const C1: f64 = 0.0416666233237390631894; /*  0x155553e1053a42.0p-57 */
 const C2: f64 = -0.00138867637746099294692; /* -0x16c087e80f1e27.0p-62 */
 const C3: f64 = 0.0000243904487962774090654; /*  0x199342e0ee5069.0p-68 */
 
-/// `libm`'s `k_cosf`: cos on [-π/4, π/4] in `f64`, rounded once to `f32`.
+/// `libm`'s `k_cosf`: cos on [-π/4, π/4] in `f64`, rounded once to `f32`: `(((1.0 + z * C0) +
+/// w * C1) + (w * z) * r) as f32` with `z = x * x`, `w = z * z`, `r = C2 + z * C3`. Each sum's
+/// second term is below a quarter of its first ([`Double::add_small`]).
+#[inline]
+fn k_cosf<D: Double>(z: D, w: D) -> f32 {
+    let r = D::of(C2).add_small(z.mul(D::of(C3)));
+    (D::of(1.0).add_small(z.mul(D::of(C0))))
+        .add_small(w.mul(D::of(C1)))
+        .add_small(w.mul(z).mul(r))
+        .to_f32()
+}
+
+/// The car's `f64` operations: [`Soft`] on the car, the native ones (the same bits, faster
+/// there) on the host.
+#[cfg(target_arch = "arm")]
+type Car = Soft;
+#[cfg(not(target_arch = "arm"))]
+type Car = f64;
+
+/// The `f64` operations of [`near`] and its kernels: IEEE 754 binary64 arithmetic, rounded to
+/// nearest, ties to even, on the operands they meet (see [`Soft`]).
+trait Double: Copy {
+    /// An `f32`, exactly (`x as f64`).
+    fn from_f32(x: f32) -> Self;
+    /// A constant.
+    fn of(c: f64) -> Self;
+    /// `self + o`.
+    fn add(self, o: Self) -> Self;
+    /// `self + o` where `o`'s exponent is at least 2 below `self`'s (|o| < |self|/2, and
+    /// below |self|/4 or so): [`Soft`]'s normalises the sum by 2 bits at most.
+    fn add_small(self, o: Self) -> Self;
+    /// `self - o`.
+    fn sub(self, o: Self) -> Self;
+    /// `self * o`.
+    fn mul(self, o: Self) -> Self;
+    /// Rounded to `f32` (`self as f32`).
+    fn to_f32(self) -> f32;
+    /// The bits (`f64::to_bits`).
+    fn to_bits(self) -> u64;
+}
+
+impl Double for f64 {
+    #[inline]
+    fn from_f32(x: f32) -> Self {
+        x as f64
+    }
+    #[inline]
+    fn of(c: f64) -> Self {
+        c
+    }
+    #[inline]
+    fn add(self, o: Self) -> Self {
+        self + o
+    }
+    #[inline]
+    fn add_small(self, o: Self) -> Self {
+        self + o
+    }
+    #[inline]
+    fn sub(self, o: Self) -> Self {
+        self - o
+    }
+    #[inline]
+    fn mul(self, o: Self) -> Self {
+        self * o
+    }
+    #[inline]
+    fn to_f32(self) -> f32 {
+        self as f32
+    }
+    #[inline]
+    fn to_bits(self) -> u64 {
+        f64::to_bits(self)
+    }
+}
+
+/// An `f64` as its bits, with the operations [`near`] and its kernels meet, in integer
+/// arithmetic: the car's FPU (a Cortex-M4F's) has single precision only, and compiler_builtins'
+/// `__muldf3` and `__adddf3` (some 87 and 109 instructions a call) handle every operand, zeros,
+/// subnormals, infinities and NaNs, and pack and unpack each result.
+///
+/// The same bits as the native operations (round to nearest, ties to even) for normal operands
+/// whose exact result is a nonzero normal number (no overflow, no underflow; debug builds
+/// assert it). That covers every operation of [`near`] and its kernels: their argument is a
+/// normal `f32` with 2⁻¹² ≤ |x| ≤ 5π/4 (the tinier ones and zeros return first), its reduction
+/// by π/2 or π is exact and nonzero (|y| ≥ 2⁻²⁶: no `f32` lies closer to them), so the kernels'
+/// operands lie within 2⁻²⁶ ≤ |y| ≤ π/4 and their products and sums (of either sign, the
+/// coefficients fixed) within about 2⁻²⁰⁰ and 2, and no sum cancels to zero (each sum's larger
+/// term dominates it: `1 + z·C0` ≥ 0.69, the others within a factor of 2 of their first term). The tests check every
+/// operation of every argument against the native one (`sincosf_exhaustive`).
+#[derive(Clone, Copy)]
+#[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
+struct Soft(u64);
+
+/// The sign bit, the fraction's bits, the significand's implicit bit of an `f64`.
+const SIGN: u64 = 1 << 63;
+const FRACTION: u64 = (1 << 52) - 1;
+const IMPLICIT: u64 = 1 << 52;
+
+impl Double for Soft {
+    #[inline]
+    fn from_f32(x: f32) -> Self {
+        let b = x.to_bits();
+        debug_assert!(x.is_normal(), "{x:e}");
+        // The exponent rebiased (127 to 1023), the fraction widened (23 to 52 bits).
+        let magnitude = (u64::from(b & 0x7fff_ffff) + ((1023 - 127) << 23)) << 29;
+        Soft(magnitude | (u64::from(b >> 31) << 63))
+    }
+    #[inline]
+    fn of(c: f64) -> Self {
+        Soft(c.to_bits())
+    }
+    #[inline]
+    fn add(self, o: Self) -> Self {
+        Soft(soft_add(self.0, o.0))
+    }
+    #[inline]
+    fn add_small(self, o: Self) -> Self {
+        Soft(soft_add_small(self.0, o.0))
+    }
+    #[inline]
+    fn sub(self, o: Self) -> Self {
+        Soft(soft_add(self.0, o.0 ^ SIGN))
+    }
+    #[inline]
+    fn mul(self, o: Self) -> Self {
+        Soft(soft_mul(self.0, o.0))
+    }
+    #[inline]
+    fn to_f32(self) -> f32 {
+        let m = self.0 & !SIGN;
+        // Rounding the bits rounds the value (they order magnitudes, a carry into the exponent
+        // included): 29 bits off, to nearest, ties to the even one.
+        let r = (m + 0x0fff_ffff + ((m >> 29) & 1)) >> 29;
+        let bits = (r as u32).wrapping_sub((1023 - 127) << 23);
+        let y = f32::from_bits(bits | ((self.0 >> 32) as u32 & 0x8000_0000));
+        debug_assert!(y.is_normal() && (r >> 23) > 1023 - 127, "{:#x}", self.0);
+        y
+    }
+    #[inline]
+    fn to_bits(self) -> u64 {
+        self.0
+    }
+}
+
+/// The biased exponent and the significand (the implicit bit set) of a normal `f64`'s bits.
+#[inline]
+fn unpack(a: u64) -> (i32, u64) {
+    let e = ((a >> 52) & 0x7ff) as i32;
+    debug_assert!(e != 0 && e != 0x7ff, "{a:#x}");
+    (e, (a & FRACTION) | IMPLICIT)
+}
+
+/// The `f64` with sign bit `sign`, biased exponent `e` and the significand `x` (its leading bit
+/// at bit 62, bits below the 53 kept jammed into its lowest bits: see [`shift_right_jam`]),
+/// rounded to nearest, ties to even.
+#[inline]
+fn round_pack(sign: u64, e: i32, x: u64) -> u64 {
+    debug_assert!(x >> 62 == 1);
+    // Ten bits off: up if above half (0x200), or half and the kept bits odd.
+    let significand = (x + 0x1ff + ((x >> 10) & 1)) >> 10;
+    // The exponent less one plus the significand with its implicit bit: a carry of the rounding
+    // into 2⁵³ raises the exponent by one, as it should.
+    debug_assert!((1..0x7fe).contains(&e), "exponent {e}");
+    sign | ((((e - 1) as u64) << 52) + significand)
+}
+
+/// `x >> n` with a 1 in the lowest bit if any bit shifted out was one ("jamming"): every bit
+/// below the rounding position kept as whether it is zero, enough to round correctly (bits
+/// below the guard bit only matter as nonzero or not, also after a subtraction, which moves
+/// the result up by at most two bits where it shifted anything out).
+#[inline]
+fn shift_right_jam(x: u64, n: u32) -> u64 {
+    if n == 0 {
+        x
+    } else if n < 64 {
+        (x >> n) | u64::from(x << (64 - n) != 0)
+    } else {
+        u64::from(x != 0)
+    }
+}
+
+/// `a + b` for normal `a` and `b` whose sum is a nonzero normal `f64` (see [`Soft`]).
+#[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
 #[inline(never)]
-fn k_cosf(x: f64) -> f32 {
-    let z = x * x;
-    let w = z * z;
-    let r = C2 + z * C3;
-    (((1.0 + z * C0) + w * C1) + (w * z) * r) as f32
+fn soft_add(a: u64, b: u64) -> u64 {
+    // `a` the larger in magnitude: its sign is the sum's.
+    let (a, b) = if a & !SIGN >= b & !SIGN {
+        (a, b)
+    } else {
+        (b, a)
+    };
+    let (ea, ma) = unpack(a);
+    let (eb, mb) = unpack(b);
+    // The significands' leading bits at bit 61: a carry of the sum fits, and 9 bits below.
+    let ma = ma << 9;
+    let mb = shift_right_jam(mb << 9, (ea - eb) as u32);
+    let sum = if (a ^ b) & SIGN == 0 {
+        ma + mb
+    } else {
+        ma - mb
+    };
+    debug_assert!(sum != 0, "{a:#x} + {b:#x}");
+    // The sum's leading bit moved to bit 62: from bit 62 (a carry) the exponent is one up.
+    let lz = sum.leading_zeros();
+    round_pack(a & SIGN, ea + 2 - lz as i32, sum << (lz - 1))
+}
+
+/// `a + b` for normal `a` and `b`, `b`'s exponent at least 2 below `a`'s, whose sum is a
+/// normal `f64` ([`Double::add_small`]): [`soft_add`] without its ordering and with its
+/// normalisation by at most 2 bits (the sum's leading bit at bit 60, 61 or 62).
+#[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
+#[inline(never)]
+fn soft_add_small(a: u64, b: u64) -> u64 {
+    let (ea, ma) = unpack(a);
+    let (eb, mb) = unpack(b);
+    debug_assert!(ea >= eb + 2, "{a:#x} + {b:#x}");
+    let ma = ma << 9;
+    let mb = shift_right_jam(mb << 9, (ea - eb) as u32);
+    let sum = if (a ^ b) & SIGN == 0 {
+        ma + mb
+    } else {
+        ma - mb
+    };
+    let (e, sum) = if sum >> 62 != 0 {
+        (ea + 1, sum)
+    } else if sum >> 61 != 0 {
+        (ea, sum << 1)
+    } else {
+        (ea - 1, sum << 2)
+    };
+    round_pack(a & SIGN, e, sum)
+}
+
+/// `a * b` for normal `a` and `b` whose product is a normal `f64` (see [`Soft`]), the
+/// significands' 106-bit product from four 32×32→64-bit multiplications (one `umull` each on
+/// the car).
+#[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
+#[inline(never)]
+fn soft_mul(a: u64, b: u64) -> u64 {
+    let (ea, ma) = unpack(a);
+    let (eb, mb) = unpack(b);
+    let (ah, al) = ((ma >> 32) as u32, ma as u32);
+    let (bh, bl) = ((mb >> 32) as u32, mb as u32);
+    let wide = |x: u32, y: u32| u64::from(x) * u64::from(y);
+    // ah and bh below 2²¹: `middle` below 2⁵⁴, `high` below 2⁴².
+    let middle = wide(ah, bl) + wide(al, bh);
+    let (low, carry) = wide(al, bl).overflowing_add(middle << 32);
+    let high = wide(ah, bh) + (middle >> 32) + u64::from(carry);
+    // The product, in [2¹⁰⁴, 2¹⁰⁶), shifted right by 43 with its lower bits jammed: its
+    // leading bit at bit 62 or 61, moved to 62.
+    let p = (high << 21) | (low >> 43) | u64::from(low & ((1 << 43) - 1) != 0);
+    let (e, p) = if p >> 62 != 0 {
+        (ea + eb - 1022, p)
+    } else {
+        (ea + eb - 1023, p << 1)
+    };
+    round_pack((a ^ b) & SIGN, e, p)
 }
 
 #[cfg(test)]
@@ -194,11 +498,70 @@ mod tests {
     use super::*;
     use core::f32::consts::PI;
 
-    /// `sincosf(x)` and `libm::sincosf(x)` are the same bits.
+    /// The native `f64` operations and [`Soft`]'s side by side, each result compared bit for
+    /// bit (a panic names the first that differs).
+    #[derive(Clone, Copy)]
+    struct Both(f64, Soft);
+
+    impl Both {
+        fn checked(self, what: &str, operands: [f64; 2]) -> Self {
+            assert_eq!(
+                self.0.to_bits(),
+                self.1.0,
+                "{what} of {:e} and {:e}: native {:e}, soft {:e}",
+                operands[0],
+                operands[1],
+                self.0,
+                f64::from_bits(self.1.0)
+            );
+            self
+        }
+    }
+
+    impl Double for Both {
+        fn from_f32(x: f32) -> Self {
+            Both(f64::from_f32(x), Soft::from_f32(x)).checked("as f64", [x.into(), 0.0])
+        }
+        fn of(c: f64) -> Self {
+            Both(c, Soft::of(c))
+        }
+        fn add(self, o: Self) -> Self {
+            Both(self.0.add(o.0), self.1.add(o.1)).checked("+", [self.0, o.0])
+        }
+        fn add_small(self, o: Self) -> Self {
+            let exponent = |x: f64| (x.to_bits() >> 52) & 0x7ff;
+            assert!(
+                exponent(o.0) + 2 <= exponent(self.0),
+                "{:e} + {:e}",
+                self.0,
+                o.0
+            );
+            Both(self.0.add_small(o.0), self.1.add_small(o.1)).checked("+", [self.0, o.0])
+        }
+        fn sub(self, o: Self) -> Self {
+            Both(self.0.sub(o.0), self.1.sub(o.1)).checked("-", [self.0, o.0])
+        }
+        fn mul(self, o: Self) -> Self {
+            Both(self.0.mul(o.0), self.1.mul(o.1)).checked("*", [self.0, o.0])
+        }
+        fn to_f32(self) -> f32 {
+            let (native, soft) = (self.0.to_f32(), self.1.to_f32());
+            assert_eq!(native.to_bits(), soft.to_bits(), "as f32 of {:e}", self.0);
+            native
+        }
+        fn to_bits(self) -> u64 {
+            self.0.to_bits()
+        }
+    }
+
+    /// `sincosf(x)` and `libm::sincosf(x)` are the same bits, and within the copied branches
+    /// so are [`near`] with [`Soft`]'s operations (the car's) and each of those operations
+    /// and the native one.
     fn same(x: f32) -> bool {
-        let (s, c) = sincosf(x);
         let (ls, lc) = libm::sincosf(x);
-        s.to_bits() == ls.to_bits() && c.to_bits() == lc.to_bits()
+        let is = |(s, c): (f32, f32)| s.to_bits() == ls.to_bits() && c.to_bits() == lc.to_bits();
+        let ix = x.to_bits() & 0x7fff_ffff;
+        is(sincosf(x)) && (ix > NEAR_BITS || is(near::<Both>(x, ix)))
     }
 
     /// The copied branches' bits of |x|, every `step`th, both signs: the first mismatch, if any.
@@ -210,7 +573,8 @@ mod tests {
             .find(|&x| !same(x))
     }
 
-    /// A dense sample of the range (every 1021st `f32`, both signs) and its edges.
+    /// A dense sample of the range (every 1021st `f32`, both signs) and its edges, the host's
+    /// path and the car's ([`same`]).
     #[test]
     fn sincosf_is_libms_on_a_sample() {
         assert_eq!(first_mismatch(1021), None);
@@ -255,8 +619,83 @@ mod tests {
         assert!(sincosf(f32::NAN).0.is_nan() && sincosf(f32::NAN).1.is_nan());
     }
 
+    /// [`Soft`]'s operations against the native ones beyond the kernels' operands: random
+    /// normal operands of either sign within 2^±60, their significands often short (exact
+    /// results and ties to even), shifted far apart and close together.
+    #[test]
+    fn soft_ops_are_native_on_random_operands() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        let mut operand = || {
+            let sign = u64::from(rng.random_range(0..2u32));
+            let exponent = rng.random_range(1023 - 60..=1023 + 60u64);
+            let zeros = rng.random_range(0..=52u32);
+            let fraction = ((rng.random_range(0..=u64::MAX) & FRACTION) >> zeros) << zeros;
+            f64::from_bits((sign << 63) | (exponent << 52) | fraction)
+        };
+        let exponent = |x: f64| (x.to_bits() >> 52) & 0x7ff;
+        for _ in 0..300_000 {
+            let (a, b) = (operand(), operand());
+            assert_eq!(
+                soft_mul(a.to_bits(), b.to_bits()),
+                (a * b).to_bits(),
+                "{a:e} * {b:e}"
+            );
+            if a + b != 0.0 {
+                assert_eq!(
+                    soft_add(a.to_bits(), b.to_bits()),
+                    (a + b).to_bits(),
+                    "{a:e} + {b:e}"
+                );
+            }
+            if exponent(b) + 2 <= exponent(a) {
+                let sum = soft_add_small(a.to_bits(), b.to_bits());
+                assert_eq!(sum, (a + b).to_bits(), "{a:e} + {b:e}");
+            }
+            assert_eq!(
+                Soft(a.to_bits()).to_f32().to_bits(),
+                (a as f32).to_bits(),
+                "{a:e}"
+            );
+            let x = a as f32;
+            assert_eq!(Soft::from_f32(x).0, f64::from(x).to_bits(), "{x:e}");
+        }
+    }
+
+    /// The car's reduction beyond 5π/4 with [`Soft`]'s operations: each the native one's bits
+    /// (a sample up to 2⁵³, both signs), within 2·10⁻⁷ of `libm::sincosf` up to 10⁶ (1.2·10⁻⁷
+    /// on this sample: `x − 2πn` rounded to `f32`), NaN from 2⁵³ on.
+    #[test]
+    fn reduce_far_soft_is_native() {
+        let mut worst = 0.0f32;
+        for b in (NEAR_BITS + 1..0x5a00_0000)
+            .step_by(4099)
+            .chain([NEAR_BITS + 1, 0x59ff_ffff])
+        {
+            for x in [f32::from_bits(b), -f32::from_bits(b)] {
+                let (s, c) = reduce_far::<Both>(x);
+                if x.abs() <= 1.0e6 {
+                    let (ls, lc) = libm::sincosf(x);
+                    worst = worst.max((s - ls).abs()).max((c - lc).abs());
+                }
+            }
+        }
+        assert!(worst <= 2.0e-7, "{worst:e}");
+        for x in [
+            f32::from_bits(0x5a00_0000),
+            -3.0e38,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ] {
+            let (s, c) = reduce_far::<Both>(x);
+            assert!(s.is_nan() && c.is_nan(), "{x:e}");
+        }
+    }
+
     /// Every `f32` of the copied branches (|x| ≲ 5π/4, both signs, some 2.16e9 of them, every
-    /// heading `Observation::check` admits among them), on every core: `cargo test -p
+    /// heading `Observation::check` admits among them), on every core, the host's path and the
+    /// car's, each of [`Soft`]'s operations against the native one ([`same`]): `cargo test -p
     /// firmware-core --release --lib -- --ignored sincosf_exhaustive`.
     #[test]
     #[ignore]
