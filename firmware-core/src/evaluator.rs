@@ -838,31 +838,9 @@ impl Evaluator {
                 .unwrap_or(&[]);
             // The objects within reach of some member of the region, and the one nearest to
             // every member where two are and their bisector tells, as for a cluster below.
-            let [cx, cy] = region.centre;
-            let mut near = 0u32;
-            let mut last2 = 0.0;
-            let mut first2 = 0.0;
-            for (k, o) in objects.iter().enumerate() {
-                let (dx, dy) = (cx - o.x, cy - o.y);
-                let limit = o.reach + region.spread;
-                let d2 = dx * dx + dy * dy;
-                if d2 < limit * limit {
-                    near |= 1 << k;
-                    last2 = d2;
-                    if k == 0 {
-                        first2 = d2;
-                    }
-                }
-            }
-            if near == 0b11
-                && let Some(side) = pair.as_ref().and_then(|p| p.side_of_region(region))
-            {
-                (near, last2) = if side == 0 {
-                    (0b01, first2)
-                } else {
-                    (0b10, last2)
-                };
-            }
+            let (near, last2) = within_reach(objects, region.centre, region.spread, || {
+                pair.as_ref().and_then(|p| p.side_of_region(region))
+            });
             if near == 0 {
                 // No object within reach of any member: every member of a cluster an allowed
                 // trajectory uses reads the clip (as a cluster near no object below).
@@ -917,36 +895,10 @@ impl Evaluator {
                     continue;
                 }
                 // The objects within reach of some member of the cluster.
-                let [cx, cy] = cluster.centre;
-                let mut near = 0u32;
-                // The squared distance from the centre to the last object within reach: the only
-                // one's, when one alone is (its root is the centre's distance below).
-                let mut last2 = 0.0;
-                // The first object's, when it is within reach.
-                let mut first2 = 0.0;
-                for (k, o) in objects.iter().enumerate() {
-                    let (dx, dy) = (cx - o.x, cy - o.y);
-                    let limit = o.reach + cluster.spread;
-                    let d2 = dx * dx + dy * dy;
-                    if d2 < limit * limit {
-                        near |= 1 << k;
-                        last2 = d2;
-                        if k == 0 {
-                            first2 = d2;
-                        }
-                    }
-                }
-                if near == 0b11
-                    && let Some(side) = pair.as_ref().and_then(|p| p.side(cluster))
-                {
-                    // One of the two is the nearest to every member: the other is left out, as
-                    // `dominant` would leave it out.
-                    (near, last2) = if side == 0 {
-                        (0b01, first2)
-                    } else {
-                        (0b10, last2)
-                    };
-                }
+                let (mut near, last2) =
+                    within_reach(objects, cluster.centre, cluster.spread, || {
+                        pair.as_ref().and_then(|p| p.side(cluster))
+                    });
                 if near == 0 {
                     let start = usize::from(cluster.samples[0]);
                     let end = usize::from(cluster.samples[1]);
@@ -1235,6 +1187,46 @@ fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_AC
             [0.0; FEATURE_COUNT]
         };
     }
+}
+
+/// The objects within reach of some point within `spread` of `centre` (a region's or a
+/// cluster's), one bit each, and the squared distance from the centre to the last of them (the
+/// only one's, when one alone is: its root is the centre's distance). Where both objects of a
+/// pair are within reach, `side` (the centre's side of their bisector, when it tells) leaves
+/// out the one that is nowhere the nearest, as `dominant` would leave it out.
+#[inline(always)]
+fn within_reach(
+    objects: &[Disc],
+    [cx, cy]: [f32; 2],
+    spread: f32,
+    side: impl FnOnce() -> Option<u32>,
+) -> (u32, f32) {
+    let mut near = 0u32;
+    let mut last2 = 0.0;
+    // The first object's, when it is within reach.
+    let mut first2 = 0.0;
+    for (k, o) in objects.iter().enumerate() {
+        let (dx, dy) = (cx - o.x, cy - o.y);
+        let limit = o.reach + spread;
+        let d2 = dx * dx + dy * dy;
+        if d2 < limit * limit {
+            near |= 1 << k;
+            last2 = d2;
+            if k == 0 {
+                first2 = d2;
+            }
+        }
+    }
+    if near == 0b11
+        && let Some(side) = side()
+    {
+        return if side == 0 {
+            (0b01, first2)
+        } else {
+            (0b10, last2)
+        };
+    }
+    (near, last2)
 }
 
 /// The obstacle pass's verdict on one member whose least squared distance to its cluster's near
