@@ -35,7 +35,7 @@ const WORST_TICK_BUDGET: u64 = 50_000;
 /// after the fifth (the semantic pass settles an object for the whole lattice first); 58 208
 /// after the sixth (the obstacle pass's members two at a time, the semantic pass's bisector of
 /// two objects); 57 731 after the obstacle pass's seventh round (its dead test of the clip
-/// dropped); 56 252 after the semantic pass's seventh (regions of clusters); 52 983 with the
+/// dropped); 56 252 after the semantic pass's seventh (regions of clusters); 53 139 with the
 /// scratch kept by the agent, the clusters' spread and the range bins swept and the heading's
 /// `f64` in integer arithmetic. Issue 17 stays open while this is above [`WORST_TICK_BUDGET`];
 /// lower it to that when met.
@@ -47,7 +47,7 @@ const MEAN_TICK_BUDGET: u64 = 30_000;
 /// The mean's guard until its target is met: 47 586 measured after the second round, 43 406 after
 /// the third, 44 568 with the scratch on the stack, 42 023 after the fourth, 38 788 after the
 /// fifth, 37 434 after the sixth, 37 311 after the obstacle pass's seventh round, 34 734 after
-/// the semantic pass's seventh, 32 642 with the scratch kept, the sweep and the heading's `f64`,
+/// the semantic pass's seventh, 32 664 with the scratch kept, the sweep and the heading's `f64`,
 /// and margin.
 const MEAN_TICK_GUARD: u64 = 33_000;
 
