@@ -851,13 +851,7 @@ impl Evaluator {
                     if cluster.trajectories & allowed == 0 {
                         continue;
                     }
-                    let start = usize::from(cluster.samples[0]);
-                    let end = usize::from(cluster.samples[1]);
-                    if let Some(clearance) = self.clearance.get_mut(start..end) {
-                        for c in clearance {
-                            *c = SEMANTIC_CLIP;
-                        }
-                    }
+                    self.clip_members(cluster);
                 }
                 continue;
             }
@@ -900,13 +894,7 @@ impl Evaluator {
                         pair.as_ref().and_then(|p| p.side(cluster))
                     });
                 if near == 0 {
-                    let start = usize::from(cluster.samples[0]);
-                    let end = usize::from(cluster.samples[1]);
-                    if let Some(clearance) = self.clearance.get_mut(start..end) {
-                        for c in clearance {
-                            *c = SEMANTIC_CLIP;
-                        }
-                    }
+                    self.clip_members(cluster);
                     continue;
                 }
                 touched |= cluster.trajectories;
@@ -1051,6 +1039,18 @@ impl Evaluator {
             };
             if cluster.trajectories & allowed != 0 {
                 self.roots(cluster.samples, o);
+            }
+        }
+    }
+
+    /// Every member of `cluster` reads the semantic clip (no object of the class within reach).
+    #[inline(always)]
+    fn clip_members(&mut self, cluster: &Cluster) {
+        let start = usize::from(cluster.samples[0]);
+        let end = usize::from(cluster.samples[1]);
+        if let Some(clearance) = self.clearance.get_mut(start..end) {
+            for c in clearance {
+                *c = SEMANTIC_CLIP;
             }
         }
     }

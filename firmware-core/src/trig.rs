@@ -426,9 +426,20 @@ fn soft_add(a: u64, b: u64) -> u64 {
     } else {
         (b, a)
     };
+    let (ea, sum) = aligned_sum(a, b);
+    debug_assert!(sum != 0, "{a:#x} + {b:#x}");
+    // The sum's leading bit moved to bit 62: from bit 62 (a carry) the exponent is one up.
+    let lz = sum.leading_zeros();
+    round_pack(a & SIGN, ea + 2 - lz as i32, sum << (lz - 1))
+}
+
+/// The exponent of `a` and the sum of the significands of `a` and `b` (`a` the larger in
+/// magnitude, both normal), `b`'s aligned to `a`'s with its shifted-out bits kept as a sticky
+/// bit: `a`'s leading bit at bit 61, so that a carry fits, with 9 bits below the significand.
+#[inline(always)]
+fn aligned_sum(a: u64, b: u64) -> (i32, u64) {
     let (ea, ma) = unpack(a);
     let (eb, mb) = unpack(b);
-    // The significands' leading bits at bit 61: a carry of the sum fits, and 9 bits below.
     let ma = ma << 9;
     let mb = shift_right_jam(mb << 9, (ea - eb) as u32);
     let sum = if (a ^ b) & SIGN == 0 {
@@ -436,10 +447,7 @@ fn soft_add(a: u64, b: u64) -> u64 {
     } else {
         ma - mb
     };
-    debug_assert!(sum != 0, "{a:#x} + {b:#x}");
-    // The sum's leading bit moved to bit 62: from bit 62 (a carry) the exponent is one up.
-    let lz = sum.leading_zeros();
-    round_pack(a & SIGN, ea + 2 - lz as i32, sum << (lz - 1))
+    (ea, sum)
 }
 
 /// `a + b` for normal `a` and `b`, `b`'s exponent at least 2 below `a`'s, whose sum is a
@@ -448,16 +456,11 @@ fn soft_add(a: u64, b: u64) -> u64 {
 #[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
 #[inline(never)]
 fn soft_add_small(a: u64, b: u64) -> u64 {
-    let (ea, ma) = unpack(a);
-    let (eb, mb) = unpack(b);
-    debug_assert!(ea >= eb + 2, "{a:#x} + {b:#x}");
-    let ma = ma << 9;
-    let mb = shift_right_jam(mb << 9, (ea - eb) as u32);
-    let sum = if (a ^ b) & SIGN == 0 {
-        ma + mb
-    } else {
-        ma - mb
-    };
+    debug_assert!(
+        ((a >> 52) & 0x7ff) >= ((b >> 52) & 0x7ff) + 2,
+        "{a:#x} + {b:#x}"
+    );
+    let (ea, sum) = aligned_sum(a, b);
     let (e, sum) = if sum >> 62 != 0 {
         (ea + 1, sum)
     } else if sum >> 61 != 0 {
