@@ -13,19 +13,26 @@
 //! 5π/4, where no validated heading goes, the host takes `libm::sincosf` itself (so the same bits
 //! everywhere) and the car reduces by 2π once (see [`sincosf`]).
 //!
-//! The car's `f64` arithmetic is `Soft`'s: its FPU (a Cortex-M4F's) has single precision only,
-//! and compiler_builtins' `__muldf3` and `__adddf3` (some 87 and 109 instructions a call, for
-//! every operand: zeros, subnormals, infinities, NaNs) were about 2.2 K instructions of the worst
-//! real tick. `Soft` works on an `f64`'s bits with integer operations (the significands'
-//! product from four 32×32→64-bit multiplications, `umull` on the car) for the operands the
-//! kernels and reductions meet, normal and with nonzero normal results, rounded to nearest, ties
-//! to even: the same bits as the native operations, every operation of every argument of the
-//! range checked against the native one bit for bit by the same exhaustive test (the kernels
-//! are generic over `Double`; the test runs them with both at once), beside the sampled test
-//! and a random one beyond the kernels' operands. The host keeps the native `f64` (the same
-//! bits, faster there). The kernels share `z = x·x` and `w = z·z` (the same values as each
-//! computes them), and the sums of the kernels, each of whose second term is below a quarter of
-//! its first, normalise by two bits at most (`Double::add_small`).
+//! The car's FPU (a Cortex-M4F's) has single precision only, and compiler_builtins' `__muldf3`
+//! and `__adddf3` (some 87 and 109 instructions a call, for every operand: zeros, subnormals,
+//! infinities, NaNs) were about 2.2 K instructions of the worst real tick. The car takes
+//! `fixed`'s path instead: the kernels' argument exactly in 64-bit fixed point, their
+//! polynomials to within 2⁻⁶⁰ (ten 64×64-bit products' top halves, four `umull` each), each
+//! result rounded to `f32` where it lies farther from the middle between two `f32`s than
+//! `libm`'s `f64` value can be from the exact polynomial (a few `f64` roundings, within about
+//! 2⁻⁵⁰): there all three round alike. About 160 instructions a heading, against some 1 500
+//! with `f64` operations. On 130 of the 234 million arguments that reach the kernels it cannot
+//! tell, and the car computes `libm`'s own `f64` operations with `Soft`'s: an `f64`'s
+//! bits in integer arithmetic (the significands' product from four 32×32→64-bit
+//! multiplications, `umull` on the car) for the operands the kernels and reductions meet,
+//! normal and with nonzero normal results, rounded to nearest, ties to even: the same bits as
+//! the native operations, each operation checked against the native one on every 1021st
+//! argument (the kernels are generic over `Double`; the test runs them with both at once) and
+//! on random operands. `sincosf_exhaustive` checks the car's path (fixed point, `Soft` where it
+//! cannot tell) and the host's (the native `f64`, the same bits, faster there) against
+//! `libm::sincosf` on every argument of the range. The kernels share `z = x·x` and `w = z·z`
+//! (the same values as each computes them), and the sums of the kernels, each of whose second
+//! term is below a quarter of its first, normalise by two bits at most (`Double::add_small`).
 //!
 //! The code below is adapted from the `libm` crate 0.2.16 (`src/math/sincosf.rs`, `k_sinf.rs`,
 //! `k_cosf.rs`; <https://github.com/rust-lang/compiler-builtins>), which carries this notice:
@@ -86,7 +93,10 @@ const NEAR_BITS: u32 = 0x407b_53d1;
 pub fn sincosf(x: f32) -> (f32, f32) {
     let ix = x.to_bits() & 0x7fff_ffff;
     if ix <= NEAR_BITS {
-        near::<Car>(x, ix)
+        #[cfg(target_arch = "arm")]
+        return fixed_or_soft(x, ix);
+        #[cfg(not(target_arch = "arm"))]
+        near::<f64>(x, ix)
     } else {
         far(x)
     }
@@ -164,7 +174,7 @@ fn far(x: f32) -> (f32, f32) {
 #[inline(never)]
 fn far(x: f32) -> (f32, f32) {
     debug_assert!(false, "sincosf beyond 5π/4 on the car: {x}");
-    reduce_far::<Car>(x)
+    reduce_far::<Soft>(x)
 }
 
 /// |x| beyond 5π/4 on the car: `x − 2πn` for the nearest integer `n` (in `f64`, `libm`'s
@@ -245,12 +255,145 @@ fn k_cosf<D: Double>(z: D, w: D) -> f32 {
         .to_f32()
 }
 
-/// The car's `f64` operations: [`Soft`] on the car, the native ones (the same bits, faster
-/// there) on the host.
-#[cfg(target_arch = "arm")]
-type Car = Soft;
-#[cfg(not(target_arch = "arm"))]
-type Car = f64;
+/// The car's path for |x| ≲ 5π/4: [`fixed`], and where it cannot tell the rounding (130 of the
+/// 234 million arguments that reach the kernels), [`near`] with [`Soft`]'s operations. The same bits as
+/// `libm::sincosf` either way (`sincosf_exhaustive` runs this path on every argument).
+#[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
+#[inline]
+fn fixed_or_soft(x: f32, ix: u32) -> (f32, f32) {
+    match fixed(x, ix) {
+        Some(sc) => sc,
+        None => near::<Soft>(x, ix),
+    }
+}
+
+/// A value in fixed point: `c · 2^shift` rounded to the nearest integer (for the kernels'
+/// coefficients, `shift` = 64: Q64; for π/2 and π, 61).
+const fn fixed_point(c: f64, shift: i32) -> u64 {
+    let bits = c.to_bits();
+    let e = ((bits >> 52) & 0x7ff) as i32 - 1075 + shift;
+    let m = (bits & FRACTION) | IMPLICIT;
+    if e >= 0 {
+        m << e
+    } else {
+        (m + (1 << (-e - 1))) >> -e
+    }
+}
+
+/// π/2 and π (the `f64`s `libm` reduces by) in Q61: exact (their lowest bit is 2⁻⁵²).
+const S1PIO2_Q61: u64 = fixed_point(S1PIO2, 61);
+const S2PIO2_Q61: u64 = fixed_point(S2PIO2, 61);
+/// The kernels' coefficients' magnitudes in Q64 (exact down to 2⁻⁶⁴; `S3`, `S4`, `C3`
+/// rounded there, an error below 2⁻⁶⁴).
+const S1_Q64: u64 = fixed_point(-S1, 64);
+const S2_Q64: u64 = fixed_point(S2, 64);
+const S3_Q64: u64 = fixed_point(-S3, 64);
+const S4_Q64: u64 = fixed_point(S4, 64);
+const C0_Q64: u64 = fixed_point(-C0, 64);
+const C1_Q64: u64 = fixed_point(C1, 64);
+const C2_Q64: u64 = fixed_point(-C2, 64);
+const C3_Q64: u64 = fixed_point(C3, 64);
+
+/// How far from the middle between two `f32`s (in units of the 64-bit significand's lowest
+/// bit) [`fixed`]'s value must lie for its rounding to be `libm`'s: `libm`'s kernels are
+/// within about 2⁻⁵⁰ of their polynomial's exact value (a few roundings of `f64` operations,
+/// each within 2⁻⁵³ of its result, on terms below the result), [`fixed`] within 2⁻⁶⁰, so both
+/// lie within 2¹⁴ units of the exact value (the significand below 2⁶⁴): a margin of eight times
+/// that.
+const MARGIN: u64 = 1 << 17;
+
+/// The top 64 bits of the 128-bit product `a · b` (truncated, up to 3 below the exact top):
+/// four 32×32→64-bit multiplications.
+#[inline(always)]
+fn mul_high(a: u64, b: u64) -> u64 {
+    let (ah, al) = (a >> 32, a & 0xffff_ffff);
+    let (bh, bl) = (b >> 32, b & 0xffff_ffff);
+    let middle = ((al * bl) >> 32) + ((al * bh) & 0xffff_ffff) + ((ah * bl) & 0xffff_ffff);
+    ah * bh + ((al * bh) >> 32) + ((ah * bl) >> 32) + (middle >> 32)
+}
+
+/// The `f32` nearest to `significand · 2^(exponent − 150)` (`significand` in [2⁶³, 2⁶⁴): 24 bits
+/// kept, 40 rounded off, ties to even, a carry into the exponent included), or `None` when
+/// the bits rounded off lie within [`MARGIN`] of the middle.
+#[inline(always)]
+fn rounded(significand: u64, exponent: u32) -> Option<u32> {
+    let rest = significand & ((1 << 40) - 1);
+    if rest.abs_diff(1 << 39) <= MARGIN {
+        return None;
+    }
+    let up = u32::from(rest > 1 << 39);
+    Some((exponent << 23) + (significand >> 40) as u32 + up)
+}
+
+/// `libm::sincosf`'s branches for 2⁻¹² ≤ |x| ≲ 5π/4 (`ix` the bits of |x|) in 64-bit fixed
+/// point: the kernels' argument `y` exactly (as [`near`]'s, Q61, then Q64), their polynomials
+/// in `y` to within 2⁻⁶⁰ (Horner's rule on the coefficients' magnitudes, their signs known:
+/// `sin y = y·(1 − z·q)`, `cos y = 1 − z·c` with `z = y²`), each result rounded to `f32` where
+/// it lies farther than [`MARGIN`] from the middle between two `f32`s: there the exact
+/// polynomial, `libm`'s `f64` value of it and this one all round to the same `f32`. `None`
+/// otherwise (130 of the 234 million arguments that reach the kernels: [`near`] then). Integer operations only.
+#[cfg_attr(not(any(target_arch = "arm", test)), allow(dead_code))]
+#[inline]
+fn fixed(x: f32, ix: u32) -> Option<(f32, f32)> {
+    let negative = (x.to_bits() >> 31) != 0;
+    /* |x| < 2**-12 */
+    if ix < 0x3980_0000 {
+        return Some((x, 1.0));
+    }
+    // |x| in Q61, exactly: 24 bits at 2^(e − 23), e from −12 to 1.
+    let e = (ix >> 23) as i32 - 127;
+    let ax = u64::from((ix & 0x7f_ffff) | 0x80_0000) << (38 + e);
+    // `y` as its magnitude and sign; `c − |x|` is `near`'s exact reduction, nonzero.
+    let off = |c: u64| {
+        let d = c as i64 - ax as i64;
+        (d.unsigned_abs(), d < 0)
+    };
+    let (y, y_negative, branch) = if ix <= 0x3f49_0fda {
+        (ax, negative, Branch::Quarter)
+    } else if ix <= 0x4016_cbe3 {
+        let (y, below) = off(S1PIO2_Q61);
+        (
+            y,
+            below,
+            if negative {
+                Branch::MinusHalf
+            } else {
+                Branch::PlusHalf
+            },
+        )
+    } else {
+        // x + π = π − |x| for a negative x, x − π = −(π − |x|) for a positive one.
+        let (y, below) = off(S2PIO2_Q61);
+        (y, below == negative, Branch::Whole)
+    };
+    // |y| ≤ π/4 in Q64 (below 2⁶¹ in Q61), at least 2⁻²⁶; normalised for the sine.
+    let y = y << 3;
+    let k = y.leading_zeros();
+    let ym = y << k;
+    let z = mul_high(y, y);
+    // sin |y| = |y|·(1 − z·q), q = |S1| − z·(S2 − z·(|S3| − z·S4)).
+    let u = S3_Q64 - mul_high(z, S4_Q64);
+    let v = S2_Q64 - mul_high(z, u);
+    let q = S1_Q64 - mul_high(z, v);
+    let sine = ym - mul_high(ym, mul_high(z, q));
+    // At least 0.89·ym: its leading bit at 63 or 62.
+    let l = sine.leading_zeros();
+    let s = f32::from_bits(rounded(sine << l, 125 - k - l)?);
+    // cos |y| = 1 − z·c, c = |C0| − z·(C1 − z·(|C2| − z·C3)); 1 − z·c in Q64 is 2⁶⁴ − z·c,
+    // at least 0.69 (z·c is at least 2¹¹ there: nonzero).
+    let a = C2_Q64 - mul_high(z, C3_Q64);
+    let b = C1_Q64 - mul_high(z, a);
+    let c = C0_Q64 - mul_high(z, b);
+    let cosine = mul_high(z, c).wrapping_neg();
+    let c = f32::from_bits(rounded(cosine, 125)?);
+    let s = if y_negative { -s } else { s };
+    Some(match branch {
+        Branch::Quarter => (s, c),
+        Branch::PlusHalf => (c, s),
+        Branch::MinusHalf => (-c, s),
+        Branch::Whole => (-s, -c),
+    })
+}
 
 /// The `f64` operations of [`near`] and its kernels: IEEE 754 binary64 arithmetic, rounded to
 /// nearest, ties to even, on the operands they meet (see [`Soft`]).
@@ -564,7 +707,7 @@ mod tests {
         let (ls, lc) = libm::sincosf(x);
         let is = |(s, c): (f32, f32)| s.to_bits() == ls.to_bits() && c.to_bits() == lc.to_bits();
         let ix = x.to_bits() & 0x7fff_ffff;
-        is(sincosf(x)) && (ix > NEAR_BITS || is(near::<Soft>(x, ix)))
+        is(sincosf(x)) && (ix > NEAR_BITS || is(fixed_or_soft(x, ix)))
     }
 
     /// [`same`], and within the copied branches each of [`Soft`]'s operations the native one's
@@ -612,6 +755,31 @@ mod tests {
         // The validated headings end at `f32::consts::PI` (`within(heading, PI)`): inside.
         assert!(PI.to_bits() <= NEAR_BITS);
         assert_eq!(sincosf(-0.0).0.to_bits(), (-0.0f32).to_bits());
+    }
+
+    /// The car's fixed-point path decides the rounding itself on all but a few arguments of a
+    /// dense sample (every 1021st `f32` of the copied branches, both signs), and where it does,
+    /// its bits are `libm`'s (every argument: `sincosf_exhaustive`).
+    #[test]
+    fn fixed_point_rarely_falls_back() {
+        let (mut decided, mut undecided) = (0u32, 0u32);
+        for b in (0x3980_0000..=NEAR_BITS).step_by(1021) {
+            for x in [f32::from_bits(b), -f32::from_bits(b)] {
+                match fixed(x, b) {
+                    Some((s, c)) => {
+                        let (ls, lc) = libm::sincosf(x);
+                        assert_eq!(
+                            (s.to_bits(), c.to_bits()),
+                            (ls.to_bits(), lc.to_bits()),
+                            "{x:e}"
+                        );
+                        decided += 1;
+                    }
+                    None => undecided += 1,
+                }
+            }
+        }
+        assert!(decided > 200_000 && undecided <= 4, "{decided} {undecided}");
     }
 
     /// Beyond the copied branches the host takes `libm`'s own.
