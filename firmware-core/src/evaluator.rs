@@ -152,10 +152,11 @@ use nalgebra::{Isometry2, Point2, Translation2, UnitComplex};
 use crate::action::{ActionMask, MAX_ACTIONS};
 use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
 use crate::lattice::{
-    BEAM_COS, BEAM_REACH, BEAM_SIN, CLUSTERS, Cluster, END_POINTS, HEAD_COUNT, HEAD_OF, HEADS,
-    LATTICE, MAX_CLUSTER_SPREAD, MAX_REGION_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE,
-    RANGE_BIN_WIDTH, RANGE_BINS, REACH_MARGIN, REGION_CLUSTERS, REGIONS, ROW_SCALE, Reach, Region,
-    SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS, TAIL_OF, UNIQUE_SAMPLES,
+    BEAM_COS, BEAM_REACH, BEAM_SIN, CLUSTERS, Cluster, END_POINTS, HEAD_COUNT, HEAD_LEN, HEAD_OF,
+    HEADS, LATTICE, MAX_CLUSTER_SPREAD, MAX_REGION_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP,
+    PAD_SAMPLE, RANGE_BIN_WIDTH, RANGE_BINS, REACH_MARGIN, REGION_CLUSTERS, REGIONS, ROW_SCALE,
+    Reach, Region, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS, TAIL_LEN, TAIL_OF,
+    UNIQUE_SAMPLES,
 };
 use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
@@ -256,7 +257,8 @@ pub struct Evaluator {
 
 /// Where the scan points start in `Evaluator::clearance`: after the samples' slots (and the
 /// fill's), before the padding slot. The scratch's length is a power of two so that indexing it
-/// with a mask needs no bounds check; the points take 512 of its 644 spare bytes.
+/// with a mask needs no bounds check; the points take 512 of its 644 spare bytes (and
+/// `sum_rows` keeps the cruise heads' sums in 28 more, from `HEADS_AT`).
 const POINTS_AT: usize = UNIQUE_SAMPLES.next_multiple_of(FILL);
 const _: () = assert!(POINTS_AT + 2 * SCAN_BEAMS <= PAD_SAMPLE);
 
@@ -720,14 +722,18 @@ impl Evaluator {
     }
 
     /// Sums the per-sample clearance (`self.clearance`) along every allowed trajectory, scaled
-    /// to ten samples and divided by `clip`, into feature `f`: the shared heads once, then each
-    /// trajectory's tail, in order along it (the same sum, bit for bit, as one pass: padding
-    /// adds the clearance of the unused slot `PAD_SAMPLE`, which stays 0). A trajectory not in
-    /// `touched` has the clip at every sample: its sum is exactly ten clips, and it keeps the
-    /// [`SAMPLES`] that [`Evaluator::clearances`] wrote (a sum of clips, a power of two, is
-    /// exact).
+    /// to ten samples and divided by `clip`, into feature `f`: the shared heads once (into the
+    /// scratch's slots from `HEADS_AT`), then each trajectory's head and tail, in order along it
+    /// (the same sum, bit for bit, as one pass: the creep trajectories' empty head and padding
+    /// added only `PAD_SAMPLE`'s 0, which changes no sum of clearances, none of them −0). A
+    /// trajectory not in `touched` has the clip at every sample: its sum is exactly ten clips,
+    /// and it keeps the [`SAMPLES`] that [`Evaluator::clearances`] wrote (a sum of clips, a
+    /// power of two, is exact).
+    ///
+    /// `sum * ROW_SCALE[a] / clip` is `sum * (ROW_SCALE[a] / clip)` bit for bit: both factors are
+    /// powers of two (asserted) and no sum is subnormal; so each family takes one factor.
     fn sum_rows(
-        &self,
+        &mut self,
         allowed: u64,
         touched: u64,
         f: usize,
@@ -738,23 +744,51 @@ impl Evaluator {
         if todo == 0 {
             return;
         }
-        let c = &self.clearance;
-        let at = |u: u16| c[usize::from(u) & (SCRATCH - 1)];
-        // Built element by element rather than zeroed and added to: a zeroed local array is a
-        // call to `memclr` on a Cortex-M4. The same sums (from 0.0, in order).
-        let heads: [f32; HEAD_COUNT] =
-            core::array::from_fn(|h| HEADS[h].iter().fold(0.0, |sum, &u| sum + at(u)));
-        for_each_action(todo, |a| {
-            // Written out: a loop of six costs a counter and a branch per sample on a Cortex-M4.
-            let [t0, t1, t2, t3, t4, t5] = TAIL_OF[a];
-            let mut sum = heads[usize::from(HEAD_OF[a]) & (HEAD_COUNT - 1)];
-            sum += at(t0);
-            sum += at(t1);
-            sum += at(t2);
-            sum += at(t3);
-            sum += at(t4);
-            sum += at(t5);
-            rows[a][f] = sum * ROW_SCALE[a] / clip;
+        let c = &mut self.clearance;
+        // The cruise heads, written out (constant slots: a load and an add a sample), into the
+        // slots the cruise sums read them from. From the first sample rather than from 0.0: the
+        // same sum, no clearance being −0.
+        macro_rules! heads {
+            ($($h:literal)*) => {$({
+                const U: [usize; HEAD_LEN] = head_slots($h);
+                c[HEADS_AT + $h] = c[U[0]] + c[U[1]] + c[U[2]] + c[U[3]];
+            })*};
+        }
+        const _: () = assert!(
+            CRUISE_HEADS == 7 && HEAD_LEN == 4,
+            "the heads are written out"
+        );
+        heads!(0 1 2 3 4 5 6);
+        let c = &*c;
+        let far = |u: u16| c[usize::from(u) & (SCRATCH - 1)];
+        let cruise = 1.0 / clip;
+        let low = todo as u32;
+        let high = (todo >> 32) as u32;
+        for (bits, base) in [(low, 0), (high & CRUISE_HIGH, 32)] {
+            for_each_bit(bits, base, |a| {
+                let CruiseSum {
+                    near: [h, t0, t1, t2, t3, _],
+                    far: [t4, t5],
+                } = CRUISE_SUMS[a];
+                let mut sum = c[NEAR_BASE[0] + usize::from(h)];
+                sum += c[NEAR_BASE[1] + usize::from(t0)];
+                sum += c[NEAR_BASE[2] + usize::from(t1)];
+                sum += c[NEAR_BASE[3] + usize::from(t2)];
+                sum += c[NEAR_BASE[4] + usize::from(t3)];
+                sum += far(t4);
+                sum += far(t5);
+                rows[a & (MAX_ACTIONS - 1)][f] = sum * cruise;
+            });
+        }
+        let creep = CREEP_SCALE / clip;
+        for_each_bit(high >> (CRUISE - 32), 0, |i| {
+            let [t0, t1, t2, t3, t4, _, _, _] = CREEP_SUMS[i & (CREEP_SLOTS - 1)];
+            let mut sum = c[usize::from(t0)];
+            sum += c[usize::from(t1)];
+            sum += c[usize::from(t2)];
+            sum += c[usize::from(t3)];
+            sum += c[usize::from(t4)];
+            rows[(i + CRUISE) & (MAX_ACTIONS - 1)][f] = sum * creep;
         });
     }
 
@@ -1492,13 +1526,172 @@ fn dominant(objects: &[Disc], near: u32, cluster: &Cluster) -> (u32, f32) {
 #[inline]
 fn for_each_action(mask: u64, mut f: impl FnMut(usize)) {
     for (half, base) in [(mask as u32, 0), ((mask >> 32) as u32, 32)] {
-        let mut bits = half;
-        while bits != 0 {
-            f((bits.trailing_zeros() as usize + base) & (MAX_ACTIONS - 1));
-            bits &= bits - 1;
-        }
+        for_each_bit(half, base, &mut f);
     }
 }
+
+/// Calls `f` with `base` plus the position of every bit set in `bits`, lowest first (masked
+/// into the actions' range).
+#[inline(always)]
+fn for_each_bit(mut bits: u32, base: usize, mut f: impl FnMut(usize)) {
+    while bits != 0 {
+        f((bits.trailing_zeros() as usize + base) & (MAX_ACTIONS - 1));
+        bits &= bits - 1;
+    }
+}
+
+/// The first creep trajectory: the cruise ones come first (each with a head of `HEADS`), then
+/// the creep ones (the empty head, padding only), all in the upper half of a mask.
+const CRUISE: usize = {
+    let mut a = 0;
+    while a < MAX_ACTIONS && (HEAD_OF[a] as usize) < HEAD_COUNT - 1 {
+        a += 1;
+    }
+    let mut b = a;
+    while b < MAX_ACTIONS {
+        assert!(
+            HEAD_OF[b] as usize == HEAD_COUNT - 1,
+            "the creep trajectories come last"
+        );
+        b += 1;
+    }
+    assert!(32 <= a && a < MAX_ACTIONS && MAX_ACTIONS - a <= CREEP_SLOTS);
+    a
+};
+
+/// The cruise trajectories' bits in the upper half of a mask.
+const CRUISE_HIGH: u32 = (1 << (CRUISE - 32)) - 1;
+
+/// The cruise heads: every head but the last (empty) one.
+const CRUISE_HEADS: usize = HEAD_COUNT - 1;
+
+/// The slots of head `h`'s samples.
+const fn head_slots(h: usize) -> [usize; HEAD_LEN] {
+    let mut out = [0; HEAD_LEN];
+    let mut k = 0;
+    while k < HEAD_LEN {
+        out[k] = HEADS[h][k] as usize;
+        assert!(out[k] < UNIQUE_SAMPLES);
+        k += 1;
+    }
+    out
+}
+
+/// Where [`Evaluator::sum_rows`] keeps the cruise heads' sums in the scratch: after the scan
+/// points (which the sums outlive), before the padding slot.
+const HEADS_AT: usize = POINTS_AT + 2 * SCAN_BEAMS;
+const _: () = assert!(HEADS_AT + CRUISE_HEADS <= PAD_SAMPLE);
+
+/// Samples of a creep trajectory (its tail's; the rest of it padding).
+const CREEP_SAMPLES: usize = 5;
+
+/// Entries of `CREEP_SUMS`: a power of two, so that indexing it with a mask needs no bounds
+/// check.
+const CREEP_SLOTS: usize = 16;
+
+/// A creep trajectory's `ROW_SCALE` (and a cruise one's is 1).
+const CREEP_SCALE: f32 = (SAMPLES / CREEP_SAMPLES) as f32;
+
+/// Whether `x` is a power of two (a normal `f32` with no mantissa bit): a product by it or a
+/// quotient by it is exact.
+const fn power_of_two(x: f32) -> bool {
+    let bits = x.to_bits();
+    bits & 0x807f_ffff == 0 && bits >> 23 != 0 && bits >> 23 != 0xff
+}
+
+const _: () = {
+    assert!(power_of_two(OBSTACLE_CLIP) && power_of_two(SEMANTIC_CLIP));
+    assert!(power_of_two(CREEP_SCALE));
+    let mut a = 0;
+    while a < MAX_ACTIONS {
+        assert!(ROW_SCALE[a] == if a < CRUISE { 1.0 } else { CREEP_SCALE });
+        a += 1;
+    }
+};
+
+/// The smallest slot that sample position `k` of a cruise trajectory (0: its head's sum, in
+/// the slots from `HEADS_AT`; then its first four tail samples) reads, or 255 when that is
+/// more (a `vldr`'s largest offset): `CruiseSum::near` is the offset from it.
+const NEAR_BASE: [usize; 5] = {
+    let mut base = [255; 5];
+    let mut a = 0;
+    while a < CRUISE {
+        let mut k = 0;
+        while k < 5 {
+            let u = near_slot(a, k);
+            if u < base[k] {
+                base[k] = u;
+            }
+            k += 1;
+        }
+        a += 1;
+    }
+    base
+};
+
+/// The slot that position `k` of cruise trajectory `a` reads (see `NEAR_BASE`).
+const fn near_slot(a: usize, k: usize) -> usize {
+    if k == 0 {
+        HEADS_AT + HEAD_OF[a] as usize
+    } else {
+        TAIL_OF[a][k - 1] as usize
+    }
+}
+
+/// Where a cruise trajectory's sum reads its samples: its head's sum and its first four tail
+/// samples as offsets from `NEAR_BASE` (one byte each: no mask is needed to stay within the
+/// scratch), its last two tail samples (whose slots span more than 255) as indices.
+#[derive(Clone, Copy)]
+#[repr(C, align(16))]
+struct CruiseSum {
+    near: [u8; 6],
+    far: [u16; 2],
+}
+
+/// Per action, where its sum reads its samples when it is a cruise trajectory (and nothing of
+/// use for a creep one: 64 entries, so that indexing needs no bounds check).
+static CRUISE_SUMS: [CruiseSum; MAX_ACTIONS] = {
+    let mut out = [CruiseSum {
+        near: [0; 6],
+        far: [0; 2],
+    }; MAX_ACTIONS];
+    let mut a = 0;
+    while a < CRUISE {
+        let mut k = 0;
+        while k < 5 {
+            let off = near_slot(a, k) - NEAR_BASE[k];
+            assert!(off <= 255 && NEAR_BASE[k] + 255 < SCRATCH);
+            out[a].near[k] = off as u8;
+            k += 1;
+        }
+        assert!(HEAD_LEN + TAIL_LEN == SAMPLES && TAIL_LEN == 6);
+        out[a].far = [TAIL_OF[a][4], TAIL_OF[a][5]];
+        a += 1;
+    }
+    out
+};
+
+/// Per creep trajectory (from `CRUISE`), its samples (each below 256: no mask is needed to
+/// stay within the scratch); the rest of its tail is padding.
+static CREEP_SUMS: [[u8; 8]; CREEP_SLOTS] = {
+    let mut out = [[0; 8]; CREEP_SLOTS];
+    let mut a = CRUISE;
+    while a < MAX_ACTIONS {
+        let mut k = 0;
+        while k < TAIL_LEN {
+            let u = TAIL_OF[a][k] as usize;
+            if k < CREEP_SAMPLES {
+                assert!(u < 256 && u != PAD_SAMPLE);
+                out[a - CRUISE][k] = u as u8;
+            } else {
+                assert!(u == PAD_SAMPLE, "a creep trajectory has five samples");
+            }
+            k += 1;
+        }
+        a += 1;
+    }
+    out
+};
 
 /// What the obstacle pass found.
 #[derive(Clone, Copy)]
