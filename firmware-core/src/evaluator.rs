@@ -1161,9 +1161,11 @@ impl Evaluator {
             return;
         };
         if centre + spread < radius {
-            // Inside the disc by more than a millimetre: every clearance is 0.
+            // Inside the disc by more than a millimetre: every clearance is 0 (a zero the
+            // compiler cannot see, `black_box`: a loop of stores, not a call to `memclr`).
+            let zero = core::hint::black_box(0.0f32);
             for c in clearance.iter_mut() {
-                *c = 0.0;
+                *c = zero;
             }
             return;
         }
