@@ -767,7 +767,7 @@ impl Evaluator {
         for (bits, base) in [(low, 0), (high & CRUISE_HIGH, 32)] {
             for_each_bit(bits, base, |a| {
                 let CruiseSum {
-                    near: [h, t0, t1, t2, t3, _],
+                    near: [_, h, t0, t1, t2, t3],
                     far: [t4, t5],
                 } = CRUISE_SUMS[a];
                 let mut sum = c[NEAR_BASE[0] + usize::from(h)];
@@ -1652,7 +1652,10 @@ const fn near_slot(a: usize, k: usize) -> usize {
 
 /// Where a cruise trajectory's sum reads its samples: its head's sum and its first four tail
 /// samples as offsets from `NEAR_BASE` (one byte each: no mask is needed to stay within the
-/// scratch), its last two tail samples (whose slots span more than 255) as indices.
+/// scratch), its last two tail samples (whose slots span more than 255) as indices. Nothing at
+/// offset 0: every field is then read at an offset from the entry's address, which the
+/// compiler computes once (it read a field at offset 0 at an index, and computed the address
+/// apart).
 #[derive(Clone, Copy)]
 #[repr(C, align(16))]
 struct CruiseSum {
@@ -1673,7 +1676,7 @@ static CRUISE_SUMS: [CruiseSum; MAX_ACTIONS] = {
         while k < 5 {
             let off = near_slot(a, k) - NEAR_BASE[k];
             assert!(off <= 255 && NEAR_BASE[k] + 255 < SCRATCH);
-            out[a].near[k] = off as u8;
+            out[a].near[k + 1] = off as u8;
             k += 1;
         }
         assert!(HEAD_LEN + TAIL_LEN == SAMPLES && TAIL_LEN == 6);
