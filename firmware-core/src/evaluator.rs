@@ -764,12 +764,24 @@ impl Evaluator {
         let cruise = 1.0 / clip;
         let low = todo as u32;
         let high = (todo >> 32) as u32;
-        for (bits, base) in [(low, 0), (high & CRUISE_HIGH, 32)] {
-            for_each_bit(bits, base, |a| {
+        // Each half of the mask with its halves of the table and the rows (no action number to
+        // make from a bit's position and a base).
+        let ([sums_low, sums_high], []) = CRUISE_SUMS.as_chunks::<32>() else {
+            unreachable!("64 actions")
+        };
+        let ([rows_low, rows_high], []) = rows.as_chunks_mut::<32>() else {
+            unreachable!("64 actions")
+        };
+        for (bits, sums, rows) in [
+            (low, sums_low, rows_low),
+            (high & CRUISE_HIGH, sums_high, rows_high),
+        ] {
+            for_each_bit(bits, 0, |a| {
+                let a = a & 31;
                 let CruiseSum {
                     near: [_, h, t0, t1, t2, t3],
                     far: [t4, t5],
-                } = CRUISE_SUMS[a];
+                } = sums[a];
                 let mut sum = c[NEAR_BASE[0] + usize::from(h)];
                 sum += c[NEAR_BASE[1] + usize::from(t0)];
                 sum += c[NEAR_BASE[2] + usize::from(t1)];
@@ -777,7 +789,7 @@ impl Evaluator {
                 sum += c[NEAR_BASE[4] + usize::from(t3)];
                 sum += far(t4);
                 sum += far(t5);
-                rows[a & (MAX_ACTIONS - 1)][f] = sum * cruise;
+                rows[a][f] = sum * cruise;
             });
         }
         let creep = CREEP_SCALE / clip;
