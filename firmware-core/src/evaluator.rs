@@ -1222,14 +1222,29 @@ fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS
             && Feature::Chair.index() == 3,
         "the clearance features are the first four"
     );
-    for_each_action(allowed, |a| {
-        let row = &mut rows[a];
-        row[0] = CLIPS;
-        row[1] = CLIPS;
-        row[2] = CLIPS;
-        row[3] = CLIPS;
-        [row[Feature::Path.index()], row[Feature::Right.index()]] = frame.path_and_side(a);
-    });
+    // Each half of the mask with its halves of the rows and the end points (no action number
+    // to make from a bit's position and a base).
+    let ([ends_low, ends_high], []) = END_POINTS.as_chunks::<32>() else {
+        unreachable!("64 actions")
+    };
+    let ([rows_low, rows_high], []) = rows.as_chunks_mut::<32>() else {
+        unreachable!("64 actions")
+    };
+    for (bits, ends, rows) in [
+        (allowed as u32, ends_low, rows_low),
+        ((allowed >> 32) as u32, ends_high, rows_high),
+    ] {
+        for_each_bit(bits, 0, |a| {
+            let a = a & 31;
+            let row = &mut rows[a];
+            row[0] = CLIPS;
+            row[1] = CLIPS;
+            row[2] = CLIPS;
+            row[3] = CLIPS;
+            [row[Feature::Path.index()], row[Feature::Right.index()]] =
+                frame.path_and_side_of(ends[a]);
+        });
+    }
 }
 
 /// [`start_rows`] on a wide target: the path and side features of every action first (the same
@@ -1895,9 +1910,18 @@ impl PathFrame {
 
     /// Path error and lateral offset of trajectory `a`'s end: the end in the frame of the path
     /// reference (`along`, `cross`), and the end's `y`.
+    ///
+    /// (On a wide target; the car's `start_rows` takes [`PathFrame::path_and_side_of`] of the
+    /// end points' halves.)
+    #[cfg(not(target_arch = "arm"))]
     #[inline(always)]
     fn path_and_side(&self, a: usize) -> [f32; 2] {
-        let [x, y] = END_POINTS[a & (MAX_ACTIONS - 1)];
+        self.path_and_side_of(END_POINTS[a & (MAX_ACTIONS - 1)])
+    }
+
+    /// [`PathFrame::path_and_side`] of the trajectory that ends at `[x, y]`.
+    #[inline(always)]
+    fn path_and_side_of(&self, [x, y]: [f32; 2]) -> [f32; 2] {
         let local = self.reference.inverse_transform_point(&Point2::new(x, y));
         let error = libm::fabsf(local.x) + libm::fabsf(local.y);
         [
