@@ -776,7 +776,7 @@ impl Evaluator {
             (low, sums_low, rows_low),
             (high & CRUISE_HIGH, sums_high, rows_high),
         ] {
-            for_each_bit(bits, 0, |a| {
+            for_each_bit(bits, |a| {
                 let a = a & 31;
                 let CruiseSum {
                     near: [_, h, t0, t1, t2, t3],
@@ -793,7 +793,7 @@ impl Evaluator {
             });
         }
         let creep = CREEP_SCALE / clip;
-        for_each_bit(high >> (CRUISE - 32), 0, |i| {
+        for_each_bit(high >> (CRUISE - 32), |i| {
             let [t0, t1, t2, t3, t4, _, _, _] = CREEP_SUMS[i & (CREEP_SLOTS - 1)];
             let mut sum = c[usize::from(t0)];
             sum += c[usize::from(t1)];
@@ -1205,15 +1205,20 @@ fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS
     // six stores cost five instructions a store.
     let zero = core::hint::black_box(0.0f32);
     const _: () = assert!(FEATURE_COUNT == 6);
-    for_each_action(!allowed, |a| {
-        let row = &mut rows[a];
-        row[0] = zero;
-        row[1] = zero;
-        row[2] = zero;
-        row[3] = zero;
-        row[4] = zero;
-        row[5] = zero;
-    });
+    let ([low, high], []) = rows.as_chunks_mut::<32>() else {
+        unreachable!("64 actions")
+    };
+    for (bits, rows) in [(!allowed as u32, low), (!(allowed >> 32) as u32, high)] {
+        for_each_bit(bits, |a| {
+            let row = &mut rows[a & 31];
+            row[0] = zero;
+            row[1] = zero;
+            row[2] = zero;
+            row[3] = zero;
+            row[4] = zero;
+            row[5] = zero;
+        });
+    }
     const CLIPS: f32 = SAMPLES as f32;
     const _: () = assert!(
         Feature::Obstacles.index() == 0
@@ -1234,7 +1239,7 @@ fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS
         (allowed as u32, ends_low, rows_low),
         ((allowed >> 32) as u32, ends_high, rows_high),
     ] {
-        for_each_bit(bits, 0, |a| {
+        for_each_bit(bits, |a| {
             let a = a & 31;
             let row = &mut rows[a];
             row[0] = CLIPS;
@@ -1560,21 +1565,13 @@ fn dominant(objects: &[Disc], near: u32, cluster: &Cluster) -> (u32, f32) {
     (kept, last)
 }
 
-/// Calls `f` with every action whose bit is set in `mask`, lowest first (on two 32-bit halves:
-/// a 64-bit shift or count is several instructions on a Cortex-M4).
-#[inline]
-fn for_each_action(mask: u64, mut f: impl FnMut(usize)) {
-    for (half, base) in [(mask as u32, 0), ((mask >> 32) as u32, 32)] {
-        for_each_bit(half, base, &mut f);
-    }
-}
-
-/// Calls `f` with `base` plus the position of every bit set in `bits`, lowest first (masked
-/// into the actions' range).
+/// Calls `f` with the position of every bit set in `bits`, lowest first. A mask of actions
+/// goes through it in two 32-bit halves (a 64-bit shift or count is several instructions on a
+/// Cortex-M4), each with its halves of the tables and rows it indexes.
 #[inline(always)]
-fn for_each_bit(mut bits: u32, base: usize, mut f: impl FnMut(usize)) {
+fn for_each_bit(mut bits: u32, mut f: impl FnMut(usize)) {
     while bits != 0 {
-        f((bits.trailing_zeros() as usize + base) & (MAX_ACTIONS - 1));
+        f(bits.trailing_zeros() as usize);
         bits &= bits - 1;
     }
 }
