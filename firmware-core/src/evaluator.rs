@@ -793,14 +793,17 @@ impl Evaluator {
             });
         }
         let creep = CREEP_SCALE / clip;
+        let ([_, rows], []) = rows.as_chunks_mut::<32>() else {
+            unreachable!("64 actions")
+        };
         for_each_bit(high >> (CRUISE - 32), |i| {
-            let [t0, t1, t2, t3, t4, _, _, _] = CREEP_SUMS[i & (CREEP_SLOTS - 1)];
+            let [_, t0, t1, t2, t3, t4, _, _] = CREEP_SUMS[i & (CREEP_SLOTS - 1)];
             let mut sum = c[usize::from(t0)];
             sum += c[usize::from(t1)];
             sum += c[usize::from(t2)];
             sum += c[usize::from(t3)];
             sum += c[usize::from(t4)];
-            rows[(i + CRUISE) & (MAX_ACTIONS - 1)][f] = sum * creep;
+            rows[(i + CRUISE - 32) & 31][f] = sum * creep;
         });
     }
 
@@ -1711,7 +1714,8 @@ static CRUISE_SUMS: [CruiseSum; MAX_ACTIONS] = {
 };
 
 /// Per creep trajectory (from `CRUISE`), its samples (each below 256: no mask is needed to
-/// stay within the scratch); the rest of its tail is padding.
+/// stay within the scratch), from offset 1 (as `CruiseSum`, nothing at offset 0); the rest of
+/// its tail is padding.
 static CREEP_SUMS: [[u8; 8]; CREEP_SLOTS] = {
     let mut out = [[0; 8]; CREEP_SLOTS];
     let mut a = CRUISE;
@@ -1721,7 +1725,7 @@ static CREEP_SUMS: [[u8; 8]; CREEP_SLOTS] = {
             let u = TAIL_OF[a][k] as usize;
             if k < CREEP_SAMPLES {
                 assert!(u < 256 && u != PAD_SAMPLE);
-                out[a - CRUISE][k] = u as u8;
+                out[a - CRUISE][k + 1] = u as u8;
             } else {
                 assert!(u == PAD_SAMPLE, "a creep trajectory has five samples");
             }
