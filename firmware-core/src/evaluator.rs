@@ -2040,6 +2040,41 @@ mod tests {
         }
     }
 
+    #[test]
+    fn the_beams_within_reach_are_those_below_their_reach() {
+        // `beams_within_reach` compares bits as `i32`s: the float comparison's verdict on every
+        // validated range, −0 and the values at and around each beam's reach included.
+        use crate::observation::SCAN_MAX_RANGE;
+        for j in 0..SCAN_BEAMS {
+            let q = BEAM_REACH[j];
+            let values = [
+                -0.0,
+                0.0,
+                f32::from_bits(1),
+                f32::MIN_POSITIVE,
+                f32::from_bits(q.to_bits() - 1),
+                q,
+                f32::from_bits(q.to_bits() + 1),
+                q * 0.5,
+                SCAN_MAX_RANGE,
+            ];
+            for (k, &r) in values.iter().enumerate() {
+                if !(0.0..=SCAN_MAX_RANGE).contains(&r) {
+                    continue;
+                }
+                let mut ranges = [SCAN_MAX_RANGE; SCAN_BEAMS];
+                ranges[j] = r;
+                // And a neighbour with another value, so that the four beams of a step differ.
+                ranges[j ^ 1] = values[(k + 3) % values.len()].min(SCAN_MAX_RANGE);
+                let within = beams_within_reach(&ranges);
+                for (i, &r) in ranges.iter().enumerate() {
+                    let bit = within[i >> 5] >> (i & 31) & 1 != 0;
+                    assert_eq!(bit, r < BEAM_REACH[i], "beam {i}, range {r:e}");
+                }
+            }
+        }
+    }
+
     /// A small deterministic generator (xorshift), for the paths' comparison below.
     struct Rng(u64);
 
