@@ -792,6 +792,11 @@ impl Evaluator {
         rows: &mut [Features; MAX_ACTIONS],
     ) {
         let f = class.feature().index();
+        // No object of the class: every clearance is the clip, as below (and no array of
+        // objects to fill first).
+        if !obs.objects.iter().any(|o| o.class == class) {
+            return;
+        }
         // The objects of the class. A sample farther than clip + r from the centre reads the clip
         // for that object (tested on squares, so the root is taken only where it matters).
         let mut objects = [Disc::FAR; MAX_OBJECTS];
