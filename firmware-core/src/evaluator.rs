@@ -152,10 +152,11 @@ use nalgebra::{Isometry2, Point2, Translation2, UnitComplex};
 use crate::action::{ActionMask, MAX_ACTIONS};
 use crate::feature::{FEATURE_COUNT, Feature, FeatureTable, Features};
 use crate::lattice::{
-    BEAM_COS, BEAM_REACH, BEAM_SIN, CLUSTERS, Cluster, END_POINTS, HEAD_COUNT, HEAD_OF, HEADS,
-    LATTICE, MAX_CLUSTER_SPREAD, MAX_REGION_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP, PAD_SAMPLE,
-    RANGE_BIN_WIDTH, RANGE_BINS, REACH_MARGIN, REGION_CLUSTERS, REGIONS, ROW_SCALE, Reach, Region,
-    SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS, TAIL_OF, UNIQUE_SAMPLES,
+    BEAM_COS, BEAM_REACH, BEAM_SIN, CLUSTERS, Cluster, END_POINTS, HEAD_COUNT, HEAD_LEN, HEAD_OF,
+    HEADS, LATTICE, MAX_CLUSTER_SPREAD, MAX_REGION_SPREAD, MAX_SAMPLE_RHO, OBSTACLE_CLIP,
+    PAD_SAMPLE, RANGE_BIN_WIDTH, RANGE_BINS, REACH_MARGIN, REGION_CLUSTERS, REGIONS, ROW_SCALE,
+    Reach, Region, SAMPLE_POINTS, SAMPLE_TRAJECTORIES, SAMPLES, SCAN_BEAMS, TAIL_LEN, TAIL_OF,
+    UNIQUE_SAMPLES,
 };
 use crate::observation::{
     MAX_OBJECTS, Observation, PathReference, SemanticClass, ValidObservation,
@@ -256,7 +257,8 @@ pub struct Evaluator {
 
 /// Where the scan points start in `Evaluator::clearance`: after the samples' slots (and the
 /// fill's), before the padding slot. The scratch's length is a power of two so that indexing it
-/// with a mask needs no bounds check; the points take 512 of its 644 spare bytes.
+/// with a mask needs no bounds check; the points take 512 of its 644 spare bytes (and
+/// `sum_rows` keeps the cruise heads' sums in 28 more, from `HEADS_AT`).
 const POINTS_AT: usize = UNIQUE_SAMPLES.next_multiple_of(FILL);
 const _: () = assert!(POINTS_AT + 2 * SCAN_BEAMS <= PAD_SAMPLE);
 
@@ -418,33 +420,9 @@ impl Evaluator {
             clearance,
         } = self;
         let (clearance, points) = split_points(clearance);
-        // Beams within reach of some sample, binned by range (bin b holding [b·w, (b+1)·w)) into
-        // `shorter[b + 1]`, then accumulated in place: `shorter[b]` holds the bins below b.
-        // Longer beams are never looked at. (In place rather than in a local array of bins:
-        // `RANGE_BINS` × 8 bytes less on the stack of the evaluation.)
-        let (head, bins) = shorter.split_at_mut(1);
-        let bins = &mut bins[..RANGE_BINS];
-        head[0] = [0; 2];
-        bins.fill([0; 2]);
-        let mut any = false;
-        for (j, (&r, &reach)) in ranges.iter().zip(BEAM_REACH.iter()).enumerate() {
-            if r < reach {
-                let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
-                if let Some(bin) = bins.get_mut(b) {
-                    bin[j >> 5] |= 1 << (j & 31);
-                    any = true;
-                    points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
-                }
-            }
-        }
-        if !any {
+        if !bin_beams(ranges, shorter, clearance, points) {
             // No beam within reach of any sample: nothing collides, every clearance is the clip.
             return Obstacles::Clear;
-        }
-        let mut acc = [0u32; 2];
-        for bin in bins.iter_mut() {
-            acc = [acc[0] | bin[0], acc[1] | bin[1]];
-            *bin = acc;
         }
         // Beams shorter than the clip plus the largest spread, and some more (whole bins):
         // candidates for the clusters near the sensor whatever their bearing (their windows
@@ -455,7 +433,6 @@ impl Evaluator {
         // all collide already is skipped. The nearest scan point of a sample within the clip is
         // in its cluster's near set, so its distance decides both the clearance and the collision.
         let (mut alive, mut touched) = (u64::MAX, 0u64);
-        fill(clearance, OBSTACLE_CLIP);
         for cluster in CLUSTERS.iter().rev() {
             if cluster.trajectories & alive == 0 {
                 continue;
@@ -720,14 +697,18 @@ impl Evaluator {
     }
 
     /// Sums the per-sample clearance (`self.clearance`) along every allowed trajectory, scaled
-    /// to ten samples and divided by `clip`, into feature `f`: the shared heads once, then each
-    /// trajectory's tail, in order along it (the same sum, bit for bit, as one pass: padding
-    /// adds the clearance of the unused slot `PAD_SAMPLE`, which stays 0). A trajectory not in
-    /// `touched` has the clip at every sample: its sum is exactly ten clips, and it keeps the
-    /// [`SAMPLES`] that [`Evaluator::clearances`] wrote (a sum of clips, a power of two, is
-    /// exact).
+    /// to ten samples and divided by `clip`, into feature `f`: the shared heads once (into the
+    /// scratch's slots from `HEADS_AT`), then each trajectory's head and tail, in order along it
+    /// (the same sum, bit for bit, as one pass: the creep trajectories' empty head and padding
+    /// added only `PAD_SAMPLE`'s 0, which changes no sum of clearances, none of them −0). A
+    /// trajectory not in `touched` has the clip at every sample: its sum is exactly ten clips,
+    /// and it keeps the [`SAMPLES`] that [`Evaluator::clearances`] wrote (a sum of clips, a
+    /// power of two, is exact).
+    ///
+    /// `sum * ROW_SCALE[a] / clip` is `sum * (ROW_SCALE[a] / clip)` bit for bit: both factors are
+    /// powers of two (asserted) and no sum is subnormal; so each family takes one factor.
     fn sum_rows(
-        &self,
+        &mut self,
         allowed: u64,
         touched: u64,
         f: usize,
@@ -738,23 +719,66 @@ impl Evaluator {
         if todo == 0 {
             return;
         }
-        let c = &self.clearance;
-        let at = |u: u16| c[usize::from(u) & (SCRATCH - 1)];
-        // Built element by element rather than zeroed and added to: a zeroed local array is a
-        // call to `memclr` on a Cortex-M4. The same sums (from 0.0, in order).
-        let heads: [f32; HEAD_COUNT] =
-            core::array::from_fn(|h| HEADS[h].iter().fold(0.0, |sum, &u| sum + at(u)));
-        for_each_action(todo, |a| {
-            // Written out: a loop of six costs a counter and a branch per sample on a Cortex-M4.
-            let [t0, t1, t2, t3, t4, t5] = TAIL_OF[a];
-            let mut sum = heads[usize::from(HEAD_OF[a]) & (HEAD_COUNT - 1)];
-            sum += at(t0);
-            sum += at(t1);
-            sum += at(t2);
-            sum += at(t3);
-            sum += at(t4);
-            sum += at(t5);
-            rows[a][f] = sum * ROW_SCALE[a] / clip;
+        let c = &mut self.clearance;
+        // The cruise heads, written out (constant slots: a load and an add a sample), into the
+        // slots the cruise sums read them from. From the first sample rather than from 0.0: the
+        // same sum, no clearance being −0.
+        macro_rules! heads {
+            ($($h:literal)*) => {$({
+                const U: [usize; HEAD_LEN] = head_slots($h);
+                c[HEADS_AT + $h] = c[U[0]] + c[U[1]] + c[U[2]] + c[U[3]];
+            })*};
+        }
+        const _: () = assert!(
+            CRUISE_HEADS == 7 && HEAD_LEN == 4,
+            "the heads are written out"
+        );
+        heads!(0 1 2 3 4 5 6);
+        let c = &*c;
+        let far = |u: u16| c[usize::from(u) & (SCRATCH - 1)];
+        let cruise = 1.0 / clip;
+        let low = todo as u32;
+        let high = (todo >> 32) as u32;
+        // Each half of the mask with its halves of the table and the rows (no action number to
+        // make from a bit's position and a base).
+        let ([sums_low, sums_high], []) = CRUISE_SUMS.as_chunks::<32>() else {
+            unreachable!("64 actions")
+        };
+        let ([rows_low, rows_high], []) = rows.as_chunks_mut::<32>() else {
+            unreachable!("64 actions")
+        };
+        for (bits, sums, rows) in [
+            (low, sums_low, rows_low),
+            (high & CRUISE_HIGH, sums_high, rows_high),
+        ] {
+            for_each_bit(bits, |a| {
+                let a = a & 31;
+                let CruiseSum {
+                    near: [_, h, t0, t1, t2, t3],
+                    far: [t4, t5],
+                } = sums[a];
+                let mut sum = c[NEAR_BASE[0] + usize::from(h)];
+                sum += c[NEAR_BASE[1] + usize::from(t0)];
+                sum += c[NEAR_BASE[2] + usize::from(t1)];
+                sum += c[NEAR_BASE[3] + usize::from(t2)];
+                sum += c[NEAR_BASE[4] + usize::from(t3)];
+                sum += far(t4);
+                sum += far(t5);
+                rows[a][f] = sum * cruise;
+            });
+        }
+        let creep = CREEP_SCALE / clip;
+        let ([_, rows], []) = rows.as_chunks_mut::<32>() else {
+            unreachable!("64 actions")
+        };
+        for_each_bit(high >> (CRUISE - 32), |i| {
+            let [_, t0, t1, t2, t3, t4, _, _] = CREEP_SUMS[i & (CREEP_SLOTS - 1)];
+            let mut sum = c[usize::from(t0)];
+            sum += c[usize::from(t1)];
+            sum += c[usize::from(t2)];
+            sum += c[usize::from(t3)];
+            sum += c[usize::from(t4)];
+            rows[(i + CRUISE - 32) & 31][f] = sum * creep;
         });
     }
 
@@ -768,6 +792,11 @@ impl Evaluator {
         rows: &mut [Features; MAX_ACTIONS],
     ) {
         let f = class.feature().index();
+        // No object of the class: every clearance is the clip, as below (and no array of
+        // objects to fill first).
+        if !obs.objects.iter().any(|o| o.class == class) {
+            return;
+        }
         // The objects of the class. A sample farther than clip + r from the centre reads the clip
         // for that object (tested on squares, so the root is taken only where it matters).
         let mut objects = [Disc::FAR; MAX_OBJECTS];
@@ -1127,9 +1156,11 @@ impl Evaluator {
             return;
         };
         if centre + spread < radius {
-            // Inside the disc by more than a millimetre: every clearance is 0.
+            // Inside the disc by more than a millimetre: every clearance is 0 (a zero the
+            // compiler cannot see, `black_box`: a loop of stores, not a call to `memclr`).
+            let zero = core::hint::black_box(0.0f32);
             for c in clearance.iter_mut() {
-                *c = 0.0;
+                *c = zero;
             }
             return;
         }
@@ -1152,10 +1183,25 @@ impl Evaluator {
 /// apart from the passes over the clusters, it keeps its own registers.
 #[inline(never)]
 fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS]) {
-    // Six stores a row: a zero the compiler cannot see (`black_box`) keeps it from making each
-    // row a call to `memclr` (about 30 instructions on a Cortex-M4).
+    // Six stores a row, written out: a zero the compiler cannot see (`black_box`) keeps it from
+    // making each row a call to `memclr` (about 30 instructions on a Cortex-M4), and a loop of
+    // six stores cost five instructions a store.
     let zero = core::hint::black_box(0.0f32);
-    for_each_action(!allowed, |a| rows[a] = [zero; FEATURE_COUNT]);
+    const _: () = assert!(FEATURE_COUNT == 6);
+    let ([low, high], []) = rows.as_chunks_mut::<32>() else {
+        unreachable!("64 actions")
+    };
+    for (bits, rows) in [(!allowed as u32, low), (!(allowed >> 32) as u32, high)] {
+        for_each_bit(bits, |a| {
+            let row = &mut rows[a & 31];
+            row[0] = zero;
+            row[1] = zero;
+            row[2] = zero;
+            row[3] = zero;
+            row[4] = zero;
+            row[5] = zero;
+        });
+    }
     const CLIPS: f32 = SAMPLES as f32;
     const _: () = assert!(
         Feature::Obstacles.index() == 0
@@ -1164,14 +1210,29 @@ fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS
             && Feature::Chair.index() == 3,
         "the clearance features are the first four"
     );
-    for_each_action(allowed, |a| {
-        let row = &mut rows[a];
-        row[0] = CLIPS;
-        row[1] = CLIPS;
-        row[2] = CLIPS;
-        row[3] = CLIPS;
-        [row[Feature::Path.index()], row[Feature::Right.index()]] = frame.path_and_side(a);
-    });
+    // Each half of the mask with its halves of the rows and the end points (no action number
+    // to make from a bit's position and a base).
+    let ([ends_low, ends_high], []) = END_POINTS.as_chunks::<32>() else {
+        unreachable!("64 actions")
+    };
+    let ([rows_low, rows_high], []) = rows.as_chunks_mut::<32>() else {
+        unreachable!("64 actions")
+    };
+    for (bits, ends, rows) in [
+        (allowed as u32, ends_low, rows_low),
+        ((allowed >> 32) as u32, ends_high, rows_high),
+    ] {
+        for_each_bit(bits, |a| {
+            let a = a & 31;
+            let row = &mut rows[a];
+            row[0] = CLIPS;
+            row[1] = CLIPS;
+            row[2] = CLIPS;
+            row[3] = CLIPS;
+            [row[Feature::Path.index()], row[Feature::Right.index()]] =
+                frame.path_and_side_of(ends[a]);
+        });
+    }
 }
 
 /// [`start_rows`] on a wide target: the path and side features of every action first (the same
@@ -1487,18 +1548,268 @@ fn dominant(objects: &[Disc], near: u32, cluster: &Cluster) -> (u32, f32) {
     (kept, last)
 }
 
-/// Calls `f` with every action whose bit is set in `mask`, lowest first (on two 32-bit halves:
-/// a 64-bit shift or count is several instructions on a Cortex-M4).
-#[inline]
-fn for_each_action(mask: u64, mut f: impl FnMut(usize)) {
-    for (half, base) in [(mask as u32, 0), ((mask >> 32) as u32, 32)] {
-        let mut bits = half;
-        while bits != 0 {
-            f((bits.trailing_zeros() as usize + base) & (MAX_ACTIONS - 1));
-            bits &= bits - 1;
-        }
+/// Calls `f` with the position of every bit set in `bits`, lowest first. A mask of actions
+/// goes through it in two 32-bit halves (a 64-bit shift or count is several instructions on a
+/// Cortex-M4), each with its halves of the tables and rows it indexes.
+#[inline(always)]
+fn for_each_bit(mut bits: u32, mut f: impl FnMut(usize)) {
+    while bits != 0 {
+        f(bits.trailing_zeros() as usize);
+        bits &= bits - 1;
     }
 }
+
+/// The obstacle pass's first step: the beams within reach of some sample binned by range into
+/// `shorter` (see `Evaluator::shorter`), their scan points into `points`, and the clip into
+/// every sample's `clearance` (see [`fill`]); false when no beam is within reach (then nothing
+/// reads what it wrote). Not inlined: the passes over the clusters then keep their registers
+/// as they were (on the real ticks, mean / worst: this out of line −305 / −313 instructions
+/// against the loop over every beam it replaced inline; the same mask inline −80 / +366, the
+/// clusters' loops taking other registers).
+#[inline(never)]
+fn bin_beams(
+    ranges: &[f32; SCAN_BEAMS],
+    shorter: &mut [Beams; SHORTER],
+    clearance: &mut [f32],
+    points: &mut [[f32; 2]],
+) -> bool {
+    // Beams within reach of some sample, binned by range (bin b holding [b·w, (b+1)·w)) into
+    // `shorter[b + 1]`, then accumulated in place: `shorter[b]` holds the bins below b.
+    // Longer beams are never looked at. (In place rather than in a local array of bins:
+    // `RANGE_BINS` × 8 bytes less on the stack of the evaluation.)
+    let within = beams_within_reach(ranges);
+    if within == [0; 2] {
+        return false;
+    }
+    // Every entry zeroed, four at a time written out, with a zero the compiler cannot see
+    // (`black_box`): a call to `memclr` otherwise.
+    let zero = core::hint::black_box(0u32);
+    for c in shorter.as_chunks_mut::<4>().0 {
+        c[0] = [zero; 2];
+        c[1] = [zero; 2];
+        c[2] = [zero; 2];
+        c[3] = [zero; 2];
+    }
+    let bins = &mut shorter[1..=RANGE_BINS];
+    let mut any = false;
+    for (half, base) in [(within[0], 0), (within[1], 32)] {
+        for_each_bit(half, |j| {
+            let j = (j + base) & (SCAN_BEAMS - 1);
+            let r = ranges[j];
+            let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
+            if let Some(bin) = bins.get_mut(b) {
+                bin[j >> 5] |= 1 << (j & 31);
+                any = true;
+                points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
+            }
+        });
+    }
+    if !any {
+        return false;
+    }
+    let mut acc = [0u32; 2];
+    for bin in bins.iter_mut() {
+        acc = [acc[0] | bin[0], acc[1] | bin[1]];
+        *bin = acc;
+    }
+    fill(clearance, OBSTACLE_CLIP);
+    true
+}
+
+/// The beams within reach (`r < reach`, `BEAM_REACH`), one bit each, four beams at a time
+/// without a branch: on the bits, as `i32`s, which are in the order of the values for a
+/// validated range (+0 … the scan's maximum, or −0, whose bits are the least) and a positive
+/// reach.
+#[inline(always)]
+fn beams_within_reach(ranges: &[f32; SCAN_BEAMS]) -> Beams {
+    let mut within = [0u32; 2];
+    for (w, (r, q)) in within.iter_mut().zip(
+        ranges
+            .as_chunks::<32>()
+            .0
+            .iter()
+            .zip(REACH_BITS.as_chunks::<32>().0),
+    ) {
+        let mut m = 0u32;
+        for (r, q) in r.as_chunks::<4>().0.iter().zip(q.as_chunks::<4>().0).rev() {
+            let lt = |k: usize| u32::from((r[k].to_bits() as i32) < q[k]);
+            m = m << 4 | lt(3) << 3 | lt(2) << 2 | lt(1) << 1 | lt(0);
+        }
+        *w = m;
+    }
+    within
+}
+
+/// `BEAM_REACH`'s bits, as `i32`s: for a positive reach and a validated range `r` (+0 … the
+/// scan's maximum, or −0), `r < reach` exactly when `r.to_bits() as i32` is below.
+static REACH_BITS: [i32; SCAN_BEAMS] = {
+    let mut out = [0; SCAN_BEAMS];
+    let mut j = 0;
+    while j < SCAN_BEAMS {
+        let q = BEAM_REACH[j];
+        assert!(q > 0.0 && q < f32::INFINITY);
+        out[j] = q.to_bits() as i32;
+        j += 1;
+    }
+    out
+};
+
+/// The first creep trajectory: the cruise ones come first (each with a head of `HEADS`), then
+/// the creep ones (the empty head, padding only), all in the upper half of a mask.
+const CRUISE: usize = {
+    let mut a = 0;
+    while a < MAX_ACTIONS && (HEAD_OF[a] as usize) < HEAD_COUNT - 1 {
+        a += 1;
+    }
+    let mut b = a;
+    while b < MAX_ACTIONS {
+        assert!(
+            HEAD_OF[b] as usize == HEAD_COUNT - 1,
+            "the creep trajectories come last"
+        );
+        b += 1;
+    }
+    assert!(32 <= a && a < MAX_ACTIONS && MAX_ACTIONS - a <= CREEP_SLOTS);
+    a
+};
+
+/// The cruise trajectories' bits in the upper half of a mask.
+const CRUISE_HIGH: u32 = (1 << (CRUISE - 32)) - 1;
+
+/// The cruise heads: every head but the last (empty) one.
+const CRUISE_HEADS: usize = HEAD_COUNT - 1;
+
+/// The slots of head `h`'s samples.
+const fn head_slots(h: usize) -> [usize; HEAD_LEN] {
+    let mut out = [0; HEAD_LEN];
+    let mut k = 0;
+    while k < HEAD_LEN {
+        out[k] = HEADS[h][k] as usize;
+        assert!(out[k] < UNIQUE_SAMPLES);
+        k += 1;
+    }
+    out
+}
+
+/// Where [`Evaluator::sum_rows`] keeps the cruise heads' sums in the scratch: after the scan
+/// points (which the sums outlive), before the padding slot.
+const HEADS_AT: usize = POINTS_AT + 2 * SCAN_BEAMS;
+const _: () = assert!(HEADS_AT + CRUISE_HEADS <= PAD_SAMPLE);
+
+/// Samples of a creep trajectory (its tail's; the rest of it padding).
+const CREEP_SAMPLES: usize = 5;
+
+/// Entries of `CREEP_SUMS`: a power of two, so that indexing it with a mask needs no bounds
+/// check.
+const CREEP_SLOTS: usize = 16;
+
+/// A creep trajectory's `ROW_SCALE` (and a cruise one's is 1).
+const CREEP_SCALE: f32 = (SAMPLES / CREEP_SAMPLES) as f32;
+
+/// Whether `x` is a power of two (a normal `f32` with no mantissa bit): a product by it or a
+/// quotient by it is exact.
+const fn power_of_two(x: f32) -> bool {
+    let bits = x.to_bits();
+    bits & 0x807f_ffff == 0 && bits >> 23 != 0 && bits >> 23 != 0xff
+}
+
+const _: () = {
+    assert!(power_of_two(OBSTACLE_CLIP) && power_of_two(SEMANTIC_CLIP));
+    assert!(power_of_two(CREEP_SCALE));
+    let mut a = 0;
+    while a < MAX_ACTIONS {
+        assert!(ROW_SCALE[a] == if a < CRUISE { 1.0 } else { CREEP_SCALE });
+        a += 1;
+    }
+};
+
+/// The smallest slot that sample position `k` of a cruise trajectory (0: its head's sum, in
+/// the slots from `HEADS_AT`; then its first four tail samples) reads, or 255 when that is
+/// more (a `vldr`'s largest offset): `CruiseSum::near` is the offset from it.
+const NEAR_BASE: [usize; 5] = {
+    let mut base = [255; 5];
+    let mut a = 0;
+    while a < CRUISE {
+        let mut k = 0;
+        while k < 5 {
+            let u = near_slot(a, k);
+            if u < base[k] {
+                base[k] = u;
+            }
+            k += 1;
+        }
+        a += 1;
+    }
+    base
+};
+
+/// The slot that position `k` of cruise trajectory `a` reads (see `NEAR_BASE`).
+const fn near_slot(a: usize, k: usize) -> usize {
+    if k == 0 {
+        HEADS_AT + HEAD_OF[a] as usize
+    } else {
+        TAIL_OF[a][k - 1] as usize
+    }
+}
+
+/// Where a cruise trajectory's sum reads its samples: its head's sum and its first four tail
+/// samples as offsets from `NEAR_BASE` (one byte each: no mask is needed to stay within the
+/// scratch), its last two tail samples (whose slots span more than 255) as indices. Nothing at
+/// offset 0: every field is then read at an offset from the entry's address, which the
+/// compiler computes once (it read a field at offset 0 at an index, and computed the address
+/// apart).
+#[derive(Clone, Copy)]
+#[repr(C, align(16))]
+struct CruiseSum {
+    near: [u8; 6],
+    far: [u16; 2],
+}
+
+/// Per action, where its sum reads its samples when it is a cruise trajectory (and nothing of
+/// use for a creep one: 64 entries, so that indexing needs no bounds check).
+static CRUISE_SUMS: [CruiseSum; MAX_ACTIONS] = {
+    let mut out = [CruiseSum {
+        near: [0; 6],
+        far: [0; 2],
+    }; MAX_ACTIONS];
+    let mut a = 0;
+    while a < CRUISE {
+        let mut k = 0;
+        while k < 5 {
+            let off = near_slot(a, k) - NEAR_BASE[k];
+            assert!(off <= 255 && NEAR_BASE[k] + 255 < SCRATCH);
+            out[a].near[k + 1] = off as u8;
+            k += 1;
+        }
+        assert!(HEAD_LEN + TAIL_LEN == SAMPLES && TAIL_LEN == 6);
+        out[a].far = [TAIL_OF[a][4], TAIL_OF[a][5]];
+        a += 1;
+    }
+    out
+};
+
+/// Per creep trajectory (from `CRUISE`), its samples (each below 256: no mask is needed to
+/// stay within the scratch), from offset 1 (as `CruiseSum`, nothing at offset 0); the rest of
+/// its tail is padding.
+static CREEP_SUMS: [[u8; 8]; CREEP_SLOTS] = {
+    let mut out = [[0; 8]; CREEP_SLOTS];
+    let mut a = CRUISE;
+    while a < MAX_ACTIONS {
+        let mut k = 0;
+        while k < TAIL_LEN {
+            let u = TAIL_OF[a][k] as usize;
+            if k < CREEP_SAMPLES {
+                assert!(u < 256 && u != PAD_SAMPLE);
+                out[a - CRUISE][k + 1] = u as u8;
+            } else {
+                assert!(u == PAD_SAMPLE, "a creep trajectory has five samples");
+            }
+            k += 1;
+        }
+        a += 1;
+    }
+    out
+};
 
 /// What the obstacle pass found.
 #[derive(Clone, Copy)]
@@ -1675,9 +1986,18 @@ impl PathFrame {
 
     /// Path error and lateral offset of trajectory `a`'s end: the end in the frame of the path
     /// reference (`along`, `cross`), and the end's `y`.
+    ///
+    /// (On a wide target; the car's `start_rows` takes [`PathFrame::path_and_side_of`] of the
+    /// end points' halves.)
+    #[cfg(not(target_arch = "arm"))]
     #[inline(always)]
     fn path_and_side(&self, a: usize) -> [f32; 2] {
-        let [x, y] = END_POINTS[a & (MAX_ACTIONS - 1)];
+        self.path_and_side_of(END_POINTS[a & (MAX_ACTIONS - 1)])
+    }
+
+    /// [`PathFrame::path_and_side`] of the trajectory that ends at `[x, y]`.
+    #[inline(always)]
+    fn path_and_side_of(&self, [x, y]: [f32; 2]) -> [f32; 2] {
         let local = self.reference.inverse_transform_point(&Point2::new(x, y));
         let error = libm::fabsf(local.x) + libm::fabsf(local.y);
         [
@@ -1722,6 +2042,41 @@ mod tests {
             samples.retain(|&u| usize::from(u) != crate::lattice::PAD_SAMPLE);
             assert_eq!(samples, SAMPLE_OF[a][..n], "trajectory {a}");
             assert_eq!(ROW_SCALE[a], (SAMPLES / n) as f32, "trajectory {a}");
+        }
+    }
+
+    #[test]
+    fn the_beams_within_reach_are_those_below_their_reach() {
+        // `beams_within_reach` compares bits as `i32`s: the float comparison's verdict on every
+        // validated range, −0 and the values at and around each beam's reach included.
+        use crate::observation::SCAN_MAX_RANGE;
+        for j in 0..SCAN_BEAMS {
+            let q = BEAM_REACH[j];
+            let values = [
+                -0.0,
+                0.0,
+                f32::from_bits(1),
+                f32::MIN_POSITIVE,
+                f32::from_bits(q.to_bits() - 1),
+                q,
+                f32::from_bits(q.to_bits() + 1),
+                q * 0.5,
+                SCAN_MAX_RANGE,
+            ];
+            for (k, &r) in values.iter().enumerate() {
+                if !(0.0..=SCAN_MAX_RANGE).contains(&r) {
+                    continue;
+                }
+                let mut ranges = [SCAN_MAX_RANGE; SCAN_BEAMS];
+                ranges[j] = r;
+                // And a neighbour with another value, so that the four beams of a step differ.
+                ranges[j ^ 1] = values[(k + 3) % values.len()].min(SCAN_MAX_RANGE);
+                let within = beams_within_reach(&ranges);
+                for (i, &r) in ranges.iter().enumerate() {
+                    let bit = within[i >> 5] >> (i & 31) & 1 != 0;
+                    assert_eq!(bit, r < BEAM_REACH[i], "beam {i}, range {r:e}");
+                }
+            }
         }
     }
 

@@ -346,10 +346,23 @@ impl Observation {
     /// Checks every number against its documented range ([`Observation::check`] without the
     /// wrapper).
     pub fn validate(&self) -> Result<(), ObservationError> {
-        for (j, &r) in self.scan.ranges.iter().enumerate() {
-            // False for NaN and the infinities too (the range's ends are finite).
-            if !(0.0..=SCAN_MAX_RANGE).contains(&r) {
-                return Err(ObservationError::ScanRange { beam: j as u8 });
+        // Every range's bits at most the maximum's, as a `u32`: exactly the ranges +0 … the
+        // maximum (a negative number's sign bit, NaN's and the infinities' exponent put theirs
+        // above), four at a time with a branch each and no float comparison. Otherwise the
+        // comparisons one by one tell, which accept −0 too and name the first range out.
+        let max = SCAN_MAX_RANGE.to_bits();
+        let quick = self.scan.ranges.as_chunks::<4>().0.iter().all(|r| {
+            r[0].to_bits() <= max
+                && r[1].to_bits() <= max
+                && r[2].to_bits() <= max
+                && r[3].to_bits() <= max
+        });
+        if !quick {
+            for (j, &r) in self.scan.ranges.iter().enumerate() {
+                // False for NaN and the infinities too (the range's ends are finite).
+                if !(0.0..=SCAN_MAX_RANGE).contains(&r) {
+                    return Err(ObservationError::ScanRange { beam: j as u8 });
+                }
             }
         }
         for (i, o) in self.objects.iter().enumerate() {
@@ -473,6 +486,51 @@ mod tests {
     /// Every number of an observation, set to a NaN or an infinity of either sign, is refused
     /// with its field's error: the checks compare with finite bounds and test no `is_finite`, so
     /// this is what says a non-finite number never passes them.
+    #[test]
+    fn the_ranges_are_validated_as_their_comparisons_say() {
+        // The quick test on the bits and the comparisons one by one: the same verdict and the
+        // same first beam named, on the values at and around the ends (both zeros included).
+        let max = SCAN_MAX_RANGE;
+        let values = [
+            0.0,
+            -0.0,
+            f32::from_bits(1),
+            -f32::from_bits(1),
+            f32::MIN_POSITIVE,
+            1.0,
+            max,
+            f32::from_bits(max.to_bits() + 1),
+            f32::from_bits(max.to_bits() - 1),
+            -max,
+            -1.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            f32::MAX,
+        ];
+        let mut state = 0x853c_49e6_748f_ea9bu64;
+        for case in 0..20_000 {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            let mut o = Observation::open_space();
+            let (a, b) = ((state % 64) as usize, ((state >> 8) % 64) as usize);
+            o.scan.ranges[a] = values[(state >> 16) as usize % values.len()];
+            o.scan.ranges[b] = values[(state >> 24) as usize % values.len()];
+            if case % 3 == 0 {
+                o.scan.ranges[(state >> 32) as usize % 64] = -0.0;
+            }
+            let want = o
+                .scan
+                .ranges
+                .iter()
+                .position(|r| !(0.0..=max).contains(r))
+                .map(|j| ObservationError::ScanRange { beam: j as u8 });
+            assert_eq!(o.validate().err(), want, "{:?}", o.scan.ranges);
+        }
+    }
+
     #[test]
     fn every_non_finite_number_is_refused_by_its_field() {
         let mut good = Observation::open_space();

@@ -66,22 +66,44 @@ pub fn select_scored(
         score_all(w, table, scores);
         return select_among(scores, allowed);
     }
-    select_keeping(w, table, allowed, |a, s| scores[a.get()] = s)
+    select_keeping(w, table, allowed, |a, s| scores[a] = s)
 }
 
-/// [`select`] one action at a time, handing each score to `keep` as it is computed.
+/// [`select`] one action at a time, handing each score to `keep` as it is computed: [`choose`]'s
+/// comparisons, on the mask's two 32-bit halves (a 64-bit shift or count is several
+/// instructions on a Cortex-M4). The running best starts as NaN rather than as nothing: no score
+/// is at most NaN, so the first is taken, as `choose` takes it; then each later one that is not
+/// at most the best so far.
 #[inline(always)]
 fn select_keeping(
     w: &Weights,
     table: &FeatureTable,
     allowed: ActionMask,
-    mut keep: impl FnMut(ActionIndex, f32),
+    mut keep: impl FnMut(usize, f32),
 ) -> Option<ActionIndex> {
-    choose(allowed.iter().map(|a| {
-        let s = score(w, table, a);
-        keep(a, s);
-        (a, s)
-    }))
+    let bits = allowed.bits();
+    if bits == 0 {
+        return None;
+    }
+    let ([low, high], []) = table.rows().as_chunks::<32>() else {
+        unreachable!("64 actions")
+    };
+    let (mut best, mut at) = (f32::NAN, 0);
+    for (half, base, rows) in [(bits as u32, 0, low), ((bits >> 32) as u32, 32, high)] {
+        let mut bits = half;
+        while bits != 0 {
+            let i = bits.trailing_zeros() as usize & 31;
+            bits &= bits - 1;
+            let s = dot(w, &rows[i]);
+            let a = base + i;
+            keep(a & (MAX_ACTIONS - 1), s);
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            if !(s <= best) {
+                (best, at) = (s, a);
+            }
+        }
+    }
+    ActionIndex::new(at)
 }
 
 /// The first of the highest scores, as [`select`] compares them one by one: the first is taken,
@@ -282,6 +304,48 @@ mod tests {
             let bits =
                 |r: (Option<(ActionIndex, f32)>, bool)| (r.0.map(|(a, v)| (a, v.to_bits())), r.1);
             assert_eq!(bits(got), bits(want), "{values:?} {allowed:?}");
+        }
+    }
+
+    #[test]
+    fn the_cars_select_is_choose() {
+        // The car's `select_keeping` (the host takes `select_among`) against `choose`, on tables
+        // of few values (ties, zeros of both signs, infinities, NaN scores).
+        const SET: [f32; 7] = [
+            f32::NEG_INFINITY,
+            -1.0,
+            -0.0,
+            0.0,
+            1.0,
+            f32::INFINITY,
+            f32::NAN,
+        ];
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for case in 0..20_000 {
+            let span = [7, 6, 5, 2][case % 4];
+            let mut table = FeatureTable::ZERO;
+            for a in 0..MAX_ACTIONS {
+                table[idx(a)] = core::array::from_fn(|_| SET[(next() % span) as usize]);
+            }
+            let w: Weights = core::array::from_fn(|_| SET[1 + (next() % 4) as usize]);
+            let allowed = match case % 3 {
+                0 => ActionMask::ALL,
+                1 => ActionMask::from_bits(next() & next()),
+                _ => ActionMask::from_bits(next()),
+            };
+            let mut kept = [0.0f32; MAX_ACTIONS];
+            let got = select_keeping(&w, &table, allowed, |a, s| kept[a] = s);
+            let want = choose(allowed.iter().map(|a| (a, score(&w, &table, a))));
+            assert_eq!(got, want, "{table:?} {w:?} {allowed:?}");
+            for a in allowed {
+                assert_eq!(kept[a.get()].to_bits(), score(&w, &table, a).to_bits());
+            }
         }
     }
 
