@@ -266,6 +266,16 @@ mod tests {
         (first, nan)
     }
 
+    /// A xorshift generator of `u64`s from `seed` (nonzero): the tests' cases, without a crate.
+    fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
+        move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        }
+    }
+
     #[test]
     fn first_max_is_the_first_of_the_running_maximum() {
         // Few distinct values (zeros of both signs, infinities, NaN) so that ties are the rule.
@@ -279,13 +289,7 @@ mod tests {
             f32::NAN,
             0.5,
         ];
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
         for case in 0..20_000 {
             // Some cases draw from fewer values: only −∞, −∞ and −1, no NaN, no 0.5.
             let span = [8, 2, 1, 7, 5][case % 5];
@@ -320,13 +324,7 @@ mod tests {
             f32::INFINITY,
             f32::NAN,
         ];
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        let mut next = xorshift(0x2545_f491_4f6c_dd1d);
         for case in 0..20_000 {
             let span = [7, 6, 5, 2][case % 4];
             let mut table = FeatureTable::ZERO;
