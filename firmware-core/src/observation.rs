@@ -483,13 +483,10 @@ mod tests {
         assert_eq!(o.validate(), Err(ObservationError::Speed));
     }
 
-    /// Every number of an observation, set to a NaN or an infinity of either sign, is refused
-    /// with its field's error: the checks compare with finite bounds and test no `is_finite`, so
-    /// this is what says a non-finite number never passes them.
+    /// The quick test on the bits and the comparisons one by one: the same verdict and the same
+    /// first beam named, on the values at and around the ends (both zeros included).
     #[test]
     fn the_ranges_are_validated_as_their_comparisons_say() {
-        // The quick test on the bits and the comparisons one by one: the same verdict and the
-        // same first beam named, on the values at and around the ends (both zeros included).
         let max = SCAN_MAX_RANGE;
         let values = [
             0.0,
@@ -531,6 +528,9 @@ mod tests {
         }
     }
 
+    /// Every number of an observation, set to a NaN or an infinity of either sign, is refused
+    /// with its field's error: the checks compare with finite bounds and test no `is_finite`, so
+    /// this is what says a non-finite number never passes them.
     #[test]
     fn every_non_finite_number_is_refused_by_its_field() {
         let mut good = Observation::open_space();
