@@ -12,7 +12,7 @@ use firmware_core::observation::{
 };
 use firmware_core::{ActionMask, FeatureTable, Learner, LearnerParams, OnlineLearner, policy};
 
-#[path = "../tests/support/naive.rs"]
+#[path = "../tests/integration/support/naive.rs"]
 mod naive;
 
 fn scenes() -> Vec<(&'static str, Observation)> {

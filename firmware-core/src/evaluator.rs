@@ -95,8 +95,8 @@
 //! [`SQRT_RELATIVE_ERROR`] (a Cortex-M4 spends about 70 instructions on `libm`'s correctly
 //! rounded one, 8 on this). Collisions are decided on squared distances, without any root. So,
 //! against a brute-force evaluator with exact square roots (the naive std implementation in
-//! `tests/support/naive.rs`), the collision mask is identical and every feature is within
-//! [`FEATURE_ERROR_BOUND`]:
+//! `tests/integration/support/naive.rs`), the collision mask is identical and every feature is
+//! within [`FEATURE_ERROR_BOUND`]:
 //!
 //! * an obstacle clearance is at most 0.5 m, off by at most 0.5 × 3e-7; ten of them and the
 //!   rounding of their sum stay below 1e-5 after the division by 0.5;

@@ -52,10 +52,10 @@
 //! [`LearnerParams::default`] is constant-step OGD acting on its averaged iterate (η = 0.01),
 //! [`AveragedOgd`]; the paper's plain OGD is [`LearnerParams::paper`]. A real teacher is noisy:
 //! with 20% of the answers replaced by random actions, plain OGD's iterate keeps being thrown off
-//! by each wrong answer while the average settles (`tests/learning.rs`, seeds 0–3: 0.7–5.7% of
-//! a random policy's latent loss against at most 0.011%). Absolute feedback (the teacher's
-//! action) is applied at the raw iterate, relative feedback (preferences, spoken rules) at the
-//! average that chose the judged action ([`PseudoLossSource::is_absolute`]). In the simulated
+//! by each wrong answer while the average settles (`tests/integration/learning.rs`, seeds 0–3:
+//! 0.7–5.7% of a random policy's latent loss against at most 0.011%). Absolute feedback (the
+//! teacher's action) is applied at the raw iterate, relative feedback (preferences, spoken rules)
+//! at the average that chose the judged action ([`PseudoLossSource::is_absolute`]). In the simulated
 //! households a table of every learner against every kind of feedback (`docs/learners.md`,
 //! `host-sim learners`) has `host-sim run` default to AdaGrad for action and semantic feedback
 //! and the Coactive perceptron for preferences; the car's default here stays averaged OGD, the

@@ -289,11 +289,11 @@ impl OnlineLearner for Ogd {
 ///   at the raw iterate `w_t`, plain OGD, the policy playing `w̄`. The pseudo-loss ranks the
 ///   named action above every other, so it is a valid loss for any iterate, and a wrong answer
 ///   moves `w_t` once, by one step, and `w̄` by `1/t` of that. This is what survives noisy
-///   teachers: on the synthetic stream of `tests/learning.rs`, with 20% of the answers random, the
-///   mean latent loss of the last 1000 rounds stays at most 0.011% of a random policy's (seeds
-///   0–3), where plain OGD's is 0.7–5.7%. Evaluating at `w̄` instead was measured at 4–10%: `w̄`
-///   moves slowly, so the same mistake is corrected again and again and the raw iterate
-///   overshoots.
+///   teachers: on the synthetic stream of `tests/integration/learning.rs`, with 20% of the
+///   answers random, the mean latent loss of the last 1000 rounds stays at most 0.011% of a random
+///   policy's (seeds 0–3), where plain OGD's is 0.7–5.7%. Evaluating at `w̄` instead was
+///   measured at 4–10%: `w̄` moves slowly, so the same mistake is corrected again and again and
+///   the raw iterate overshoots.
 /// * **Relative feedback** (a preference, semantic statements): at `w̄`, the weights that chose
 ///   the judged action. Such a pseudo-loss only ranks actions relative to the ones it compared;
 ///   evaluated at `w_t`, its maximiser is the raw iterate's own favourite, about which the

@@ -170,7 +170,7 @@ impl Default for LearnerParams {
     /// teacher's policy; in the simulated households it is also the better learner from noisy
     /// action feedback, and it learns from preferences and spoken rules as well (see
     /// [`AveragedOgd`](crate::AveragedOgd) for how it treats each kind of feedback). The figures
-    /// are in `firmware-core/tests/learning.rs` and `host-sim`'s `experiment` module.
+    /// are in `firmware-core/tests/integration/learning.rs` and `host-sim`'s `experiment` module.
     fn default() -> Self {
         Self::new(LearnerKind::AveragedOgd)
     }

@@ -50,8 +50,8 @@
 //! preference is a fair coin's. One uniform draw per correction decides, from the teacher's
 //! generator, then one draw of `r` (or of the coin); with `p = 0` nothing is drawn, so the runs of
 //! a teacher without random answers are unchanged. This is the noise model of the synthetic
-//! teacher (`host-sim demo --noise`) and of `firmware-core/tests/learning.rs`, carried to the
-//! households (`host-sim learners` uses `p = 0.2`).
+//! teacher (`host-sim demo --noise`) and of `firmware-core/tests/integration/learning.rs`, carried
+//! to the households (`host-sim learners` uses `p = 0.2`).
 //!
 //! # Presets
 //!

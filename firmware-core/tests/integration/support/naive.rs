@@ -2,7 +2,7 @@
 //! Vec-based, written from the formulas of `firmware_core::evaluator`'s documentation. It reads the
 //! lattice's sample points and the beam directions (inputs, not evaluator code) so that its
 //! arithmetic sees the same numbers; its constants are its own, written from the documented
-//! feature definitions, and `tests/evaluator.rs` checks that the crate's equal them.
+//! feature definitions, and `evaluator.rs` beside this folder checks that the crate's equal them.
 #![allow(dead_code)]
 
 use firmware_core::evaluator::beam_direction;

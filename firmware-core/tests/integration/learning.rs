@@ -7,8 +7,8 @@
 //! a threshold of 0.05 (about 3% of a random action's mean loss of ~1.6). The noisy teacher
 //! replaces 20% of its answers by a uniformly random allowed action.
 //!
-//! Measured (T = 20 000; `cargo test -p firmware-core --release --test learning -- --nocapture`
-//! prints the table): every learner's regret fits a log-log slope of 0.12–0.33 on the clean
+//! Measured (T = 20 000; `cargo test -p firmware-core --release --test integration learning::
+//! -- --nocapture` prints the table): every learner's regret fits a log-log slope of 0.12–0.33 on the clean
 //! stream (seeds 0–1); with the noisy teacher (seeds 0–3) plain OGD's last-1000-round loss is
 //! 0.7–5.7% of a random policy's (2.98%, 1.22%, 5.70%, 0.73%) and the averaged OGD default's at
 //! most 0.011%. [`the_quoted_noise_figures_are_the_measured_ones`] re-measures the last two and
@@ -208,7 +208,7 @@ fn the_quoted_noise_figures_are_the_measured_ones() {
         "../README.md",
         "src/lib.rs",
         "src/learner/mod.rs",
-        "tests/learning.rs",
+        "tests/integration/learning.rs",
     ] {
         let text = std::fs::read_to_string(format!("{root}/{file}")).unwrap();
         assert!(

@@ -1,8 +1,7 @@
 //! The evaluator against a naive brute-force std evaluator on random observations, and on
 //! hand-built scenes (a wall ahead, a door on the left, mirror symmetry).
 
-mod support;
-
+use crate::support::naive;
 use firmware_core::agent::Agent;
 use firmware_core::evaluator::{Evaluator, FEATURE_ERROR_BOUND, beam_direction};
 use firmware_core::lattice::{Family, SCAN_BEAMS, mirror_action, trajectory};
@@ -13,7 +12,6 @@ use firmware_core::{
     ActionIndex, ActionMask, FEATURE_COUNT, Feature, FeatureTable, Learner, LearnerParams,
 };
 use proptest::prelude::*;
-use support::naive;
 
 fn evaluate(obs: &Observation) -> (FeatureTable, ActionMask) {
     let mut table = FeatureTable::ZERO;
