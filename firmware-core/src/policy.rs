@@ -266,6 +266,19 @@ mod tests {
         (first, nan)
     }
 
+    /// Few distinct values (zeros of both signs, infinities, NaN) so that ties are the rule; the
+    /// first seven are scores, the last one more value for `first_max`.
+    const SET: [f32; 8] = [
+        f32::NEG_INFINITY,
+        -1.0,
+        -0.0,
+        0.0,
+        1.0,
+        f32::INFINITY,
+        f32::NAN,
+        0.5,
+    ];
+
     /// A xorshift generator of `u64`s from `seed` (nonzero): the tests' cases, without a crate.
     fn xorshift(mut state: u64) -> impl FnMut() -> u64 {
         move || {
@@ -278,17 +291,6 @@ mod tests {
 
     #[test]
     fn first_max_is_the_first_of_the_running_maximum() {
-        // Few distinct values (zeros of both signs, infinities, NaN) so that ties are the rule.
-        const SET: [f32; 8] = [
-            f32::NEG_INFINITY,
-            -1.0,
-            -0.0,
-            0.0,
-            1.0,
-            f32::INFINITY,
-            f32::NAN,
-            0.5,
-        ];
         let mut next = xorshift(0x9e37_79b9_7f4a_7c15);
         for case in 0..20_000 {
             // Some cases draw from fewer values: only −∞, −∞ and −1, no NaN, no 0.5.
@@ -315,15 +317,6 @@ mod tests {
     fn the_cars_select_is_choose() {
         // The car's `select_keeping` (the host takes `select_among`) against `choose`, on tables
         // of few values (ties, zeros of both signs, infinities, NaN scores).
-        const SET: [f32; 7] = [
-            f32::NEG_INFINITY,
-            -1.0,
-            -0.0,
-            0.0,
-            1.0,
-            f32::INFINITY,
-            f32::NAN,
-        ];
         let mut next = xorshift(0x2545_f491_4f6c_dd1d);
         for case in 0..20_000 {
             let span = [7, 6, 5, 2][case % 4];

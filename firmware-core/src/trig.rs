@@ -138,12 +138,7 @@ fn near<D: Double>(x: f32, ix: u32) -> (f32, f32) {
         (x64.sub(D::of(S2PIO2)), Branch::Whole)
     };
     let (s, c) = kernels(y);
-    match branch {
-        Branch::Quarter => (s, c),
-        Branch::PlusHalf => (c, s),
-        Branch::MinusHalf => (-c, s),
-        Branch::Whole => (-s, -c),
-    }
+    branch.place(s, c)
 }
 
 /// The branches of `libm::sincosf` that [`near`] takes, by the multiple of π/2 their kernels'
@@ -158,6 +153,20 @@ enum Branch {
     MinusHalf,
     /// 3π/4 < |x| ~<= 5π/4: `(−k_sinf(x ∓ π), −k_cosf(x ∓ π))`.
     Whole,
+}
+
+impl Branch {
+    /// `(sin x, cos x)` from the kernels' `s = k_sinf(y)` and `c = k_cosf(y)`, as `libm` puts
+    /// them in place in this branch.
+    #[inline(always)]
+    fn place(self, s: f32, c: f32) -> (f32, f32) {
+        match self {
+            Branch::Quarter => (s, c),
+            Branch::PlusHalf => (c, s),
+            Branch::MinusHalf => (-c, s),
+            Branch::Whole => (-s, -c),
+        }
+    }
 }
 
 /// |x| beyond 5π/4 on the host: `libm`'s own, the same bits.
@@ -387,12 +396,7 @@ fn fixed(x: f32, ix: u32) -> Option<(f32, f32)> {
     let cosine = mul_high(z, c).wrapping_neg();
     let c = f32::from_bits(rounded(cosine, 125)?);
     let s = if y_negative { -s } else { s };
-    Some(match branch {
-        Branch::Quarter => (s, c),
-        Branch::PlusHalf => (c, s),
-        Branch::MinusHalf => (-c, s),
-        Branch::Whole => (-s, -c),
-    })
+    Some(branch.place(s, c))
 }
 
 /// The `f64` operations of [`near`] and its kernels: IEEE 754 binary64 arithmetic, rounded to
