@@ -7,7 +7,7 @@
 //!                [--faults drop=0.1,corrupt=0.01,seed=7] [--frame-mode fd] [--idle-timeout-ms N]
 //! hil_mock serve --link ... --insecure      # the public all-zero key, announced at every start
 //! hil_mock replay bus.log --link udp://127.0.0.1:47000 [--realtime]
-//! hil_mock bench-latency [--link udp] [--count 10000]
+//! hil_mock bench-latency [--link udp] [--count 10000] [--no-pin]
 //! ```
 //!
 //! `serve` refuses to start without `--key FILE` or `--insecure`. It prints one line
@@ -141,6 +141,10 @@ enum Command {
         /// Round trips measured.
         #[arg(long, default_value_t = 10_000)]
         count: u32,
+        /// Leave the threads where the scheduler puts them, rather than the host's side on one
+        /// CPU and the car's on another (see `bench_latency`).
+        #[arg(long)]
+        no_pin: bool,
     },
 }
 
@@ -247,15 +251,20 @@ fn run(command: Command) -> Result<()> {
                 log.display()
             ))
         }
-        Command::BenchLatency { link, count } => {
+        Command::BenchLatency {
+            link,
+            count,
+            no_pin,
+        } => {
             if link != "udp" {
                 bail!("bench-latency measures udp only, got --link {link}");
             }
             if count < 2 {
                 bail!("--count must be at least 2 (the first round trip follows the ping-pongs)");
             }
-            let r = bench_latency(count)?;
+            let r = bench_latency(count, !no_pin)?;
             let idle = count.div_ceil(BENCH_BLOCK);
+            say(format_args!("{}", r.placement))?;
             say(format_args!(
                 "{} observation → action round trips over UDP loopback (CAN FD frames, {} per observation), \
                  back to back: p50 {:.0} µs, p99 {:.0} µs, max {:.0} µs",
@@ -401,11 +410,75 @@ impl RoundTrips {
     }
 }
 
+/// Where [`bench_latency`] ran its two sides.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Placement {
+    /// Each side on a CPU of its own: the host's thread on `host`; the car's server, and the
+    /// ping-pong's echo, on `car`.
+    Pinned {
+        /// The host's CPU.
+        host: usize,
+        /// The car's CPU.
+        car: usize,
+    },
+    /// Wherever the scheduler put them: asked for (`--no-pin`), or fewer than two CPUs to run
+    /// on, or not Linux.
+    Free,
+}
+
+impl std::fmt::Display for Placement {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Placement::Pinned { host, car } => write!(
+                f,
+                "the host's thread pinned to CPU {host}, the car's server and the echo to CPU {car} \
+                 (--no-pin: where the scheduler puts them)"
+            ),
+            Placement::Free => {
+                f.write_str("the threads where the scheduler puts them (not pinned)")
+            }
+        }
+    }
+}
+
+impl Placement {
+    /// Two CPUs this thread may run on, the first two of its affinity mask, or [`Placement::Free`]
+    /// when `pin` is false or there are not two.
+    fn choose(pin: bool) -> Self {
+        #[cfg(target_os = "linux")]
+        if pin && let Ok(set) = rustix::thread::sched_getaffinity(None) {
+            let mut cpus = (0..rustix::thread::CpuSet::MAX_CPU).filter(|&c| set.is_set(c));
+            if let (Some(host), Some(car)) = (cpus.next(), cpus.next()) {
+                return Placement::Pinned { host, car };
+            }
+        }
+        let _ = pin;
+        Placement::Free
+    }
+
+    /// Pins the calling thread to the host's CPU (`car`: the car's).
+    fn enter(self, car: bool) -> Result<()> {
+        #[cfg(target_os = "linux")]
+        if let Placement::Pinned { host, car: c } = self {
+            let cpu = if car { c } else { host };
+            let mut set = rustix::thread::CpuSet::new();
+            set.set(cpu);
+            rustix::thread::sched_setaffinity(None, &set)
+                .map_err(std::io::Error::from)
+                .with_context(|| format!("pin a thread to CPU {cpu}"))?;
+        }
+        let _ = car;
+        Ok(())
+    }
+}
+
 /// Round-trip figures of [`bench_latency`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Latency {
     /// Round trips measured (of each kind).
     pub count: u32,
+    /// Where the two sides ran.
+    pub placement: Placement,
     /// CAN FD frames per observation.
     pub frames_per_observation: usize,
     /// Observation → action through the car's server, back to back: the round trips that
@@ -432,10 +505,30 @@ pub const BENCH_BLOCK: u32 = 100;
 /// action round trips (after 100 unmeasured ones), CAN FD frames both ways; and, interleaved
 /// with them in blocks of 100, `count` round trips of a plain UDP ping-pong on the same loopback
 /// (an echo thread), the floor any UDP transport stands on.
-pub fn bench_latency(count: u32) -> Result<Latency> {
+///
+/// With `pin` (and two CPUs to run on, on Linux) the host's side runs on one CPU and the car's
+/// server and the echo on another, as a car is a computer of its own. Left to the scheduler, the
+/// two sides often end up on one CPU (a wake-up over loopback pulls the woken thread to the
+/// waker's CPU), where each side's busy poll ([`crate::transport::udp`]) holds the CPU its peer
+/// waits for until the poll's window runs out (README, "Benchmarks"). The measuring runs in
+/// threads of its own: the caller's thread keeps its affinity.
+pub fn bench_latency(count: u32, pin: bool) -> Result<Latency> {
     if count < 2 {
         bail!("bench_latency: at least 2 round trips (the first follows the ping-pongs)");
     }
+    let placement = Placement::choose(pin);
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            placement.enter(false)?;
+            measure_latency(count, placement)
+        })
+        .join()
+        .map_err(|_| anyhow::anyhow!("the bench's host thread panicked"))?
+    })
+}
+
+/// [`bench_latency`]'s work, on the host's thread.
+fn measure_latency(count: u32, placement: Placement) -> Result<Latency> {
     let mut car_link = UdpLink::listen(SocketAddrV4::new(std::net::Ipv4Addr::LOCALHOST, 0))?;
     let SocketAddr::V4(car_addr) = car_link.local_addr()? else {
         bail!("udp bound to a non-IPv4 address");
@@ -446,6 +539,7 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
     let flag = stop.clone();
     let car_key = key.clone();
     let server = std::thread::spawn(move || {
+        placement.enter(true)?;
         let mut server = Server::in_memory(
             CarConfig {
                 mode: FrameMode::Fd,
@@ -455,9 +549,11 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
             epoch,
         )
         .without_event_lines();
-        server.run(&mut car_link, &flag)
+        server
+            .run(&mut car_link, &flag)
+            .map_err(anyhow::Error::from)
     });
-    let (mut ping, echo) = ping_pong()?;
+    let (mut ping, echo) = ping_pong(placement)?;
     let mut host = UdpLink::connect(car_addr)?;
     let mut sec = HostSecurity::assume_fresh_car(&key, epoch);
     let mut inbox = Inbox::new(Direction::CarToHost);
@@ -548,6 +644,7 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
         .map_err(|_| anyhow::anyhow!("the server thread panicked"))??;
     Ok(Latency {
         count,
+        placement,
         frames_per_observation,
         link: RoundTrips::of(&mut samples),
         after_idle: RoundTrips::of(&mut after_idle),
@@ -556,12 +653,14 @@ pub fn bench_latency(count: u32) -> Result<Latency> {
     })
 }
 
-/// A plain UDP ping-pong on 127.0.0.1: an echo thread on a blocking socket, and a function that
-/// sends one [`PING_BYTES`] datagram to it and waits (blocking) for it to come back, returning
-/// the round trip in µs. Dropping the function sends the echo thread an empty datagram, which
-/// ends it.
+/// A plain UDP ping-pong on 127.0.0.1: an echo thread on a blocking socket (on the car's CPU
+/// when pinned), and a function that sends one [`PING_BYTES`] datagram to it and waits
+/// (blocking) for it to come back, returning the round trip in µs. Dropping the function sends
+/// the echo thread an empty datagram, which ends it.
 #[allow(clippy::type_complexity)]
-fn ping_pong() -> Result<(
+fn ping_pong(
+    placement: Placement,
+) -> Result<(
     impl FnMut(u32) -> Result<f64>,
     std::thread::JoinHandle<Result<()>>,
 )> {
@@ -569,6 +668,7 @@ fn ping_pong() -> Result<(
     let echo = UdpSocket::bind("127.0.0.1:0").context("bind the echo socket")?;
     let at = echo.local_addr()?;
     let handle = std::thread::spawn(move || -> Result<()> {
+        placement.enter(true)?;
         let mut buf = [0u8; 2 * PING_BYTES];
         loop {
             let (n, from) = echo.recv_from(&mut buf).context("echo receive")?;
@@ -727,14 +827,33 @@ mod tests {
 
     #[test]
     fn the_latency_bench_runs() {
-        let r = bench_latency(50).unwrap();
-        assert_eq!(r.count, 50);
-        assert!(r.frames_per_observation >= 2, "{r:?}");
-        for t in [r.link, r.after_idle, r.all, r.ping] {
-            assert!(t.p50_us <= t.p99_us && t.p99_us <= t.max_us, "{r:?}");
+        #[cfg(target_os = "linux")]
+        let (ours, cpus) = {
+            let set = rustix::thread::sched_getaffinity(None).unwrap();
+            (set, set.count())
+        };
+        for pin in [true, false] {
+            let r = bench_latency(50, pin).unwrap();
+            assert_eq!(r.count, 50);
+            assert!(r.frames_per_observation >= 2, "{r:?}");
+            for t in [r.link, r.after_idle, r.all, r.ping] {
+                assert!(t.p50_us <= t.p99_us && t.p99_us <= t.max_us, "{r:?}");
+            }
+            // The first measured round trip follows the first block of ping-pongs.
+            assert!(r.after_idle.max_us <= r.all.max_us && r.link.max_us <= r.all.max_us);
+            #[cfg(target_os = "linux")]
+            {
+                match r.placement {
+                    Placement::Pinned { host, car } => {
+                        assert!(pin && host != car, "{r:?}");
+                        assert!(ours.is_set(host) && ours.is_set(car), "{r:?}");
+                    }
+                    Placement::Free => assert!(!pin || cpus < 2, "{r:?}"),
+                }
+                // The bench pinned threads of its own, not the caller's.
+                assert_eq!(rustix::thread::sched_getaffinity(None).unwrap(), ours);
+            }
         }
-        // The first measured round trip follows the first block of ping-pongs.
-        assert!(r.after_idle.max_us <= r.all.max_us && r.link.max_us <= r.all.max_us);
-        assert!(bench_latency(1).is_err());
+        assert!(bench_latency(1, true).is_err());
     }
 }

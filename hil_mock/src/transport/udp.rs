@@ -33,6 +33,11 @@
 //! would stay there. An idle link takes no CPU time. [`UdpLink::set_busy_poll`] sets the limit
 //! ([`Duration::ZERO`]: never).
 //!
+//! Both ends busy polling on one CPU wait for each other: each holds the CPU its peer needs until
+//! its window runs out, and a wake-up over loopback tends to pull the woken thread onto the
+//! waker's CPU. A car's server is best on a CPU of its own (`taskset -c 1 hil_mock serve …`), as
+//! `hil_mock bench-latency` places it (README, "Benchmarks").
+//!
 //! Remote and error frames received are skipped; a packet that is truncated or inconsistent is
 //! reported as malformed and dropped whole.
 //!
