@@ -64,7 +64,7 @@ use aes::Aes128Enc;
 use aes::cipher::{Block, BlockCipherEncrypt, KeyInit};
 
 use crate::envelope::{EnvelopeError, PROTOCOL_VERSION};
-use crate::message::{DecodeError, Hello, Message, NONCE_LEN, Welcome};
+use crate::message::{DecodeError, Hello, Message, MessageKind, NONCE_LEN, Welcome};
 use crate::stream::Stream;
 
 /// Bytes of a key.
@@ -361,6 +361,13 @@ impl<'a> SecuredPdu<'a> {
         &self.bytes[self.bytes.len() - MAC_LEN..]
     }
 
+    /// The kind its payload's first byte (postcard's variant tag) names, if any: the one byte of
+    /// a PDU read before its MAC verifies, since it says which freshness value the MAC covers (a
+    /// hello's fixed one, a welcome's own).
+    pub fn kind(&self) -> Option<MessageKind> {
+        MessageKind::from_tag(self.payload()[0])
+    }
+
     /// The payload decoded ([`Message::decode_payload`]).
     pub fn message(&self) -> Result<Message, DecodeError> {
         Message::decode_payload(self.payload())
@@ -571,9 +578,11 @@ impl core::error::Error for SealError {}
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
 #[non_exhaustive]
 pub enum OpenError {
-    /// It does not decode (length, version, encoding): garbage or a lost frame.
+    /// Too short or of another version; or authentic and fresh but its payload does not decode
+    /// (only the key's holder can send one).
     Decode(DecodeError),
-    /// It decodes but was refused (authentication or freshness).
+    /// Refused before it was decoded: authentication or freshness (a welcome, whose MAC covers
+    /// the freshness value it carries, is decoded first).
     Refused(Refusal),
 }
 
@@ -749,20 +758,22 @@ impl Endpoint for CarSecurity {
         Ok(bytes)
     }
 
+    /// Authenticates before it parses: of a PDU whose MAC does not verify, nothing is decoded but
+    /// the variant tag ([`SecuredPdu::kind`]), so a stranger's bytes never reach postcard's
+    /// decoder. A PDU that verifies, is fresh and does not decode (only the key's holder can make
+    /// one) is a decode error, and its counter is not taken.
     fn open(&mut self, stream: Stream, pdu: &[u8]) -> Result<Message, OpenError> {
         self.newest = false;
         let pdu = SecuredPdu::new_checked(pdu)?;
-        let msg = pdu.message()?;
         let Some(auth) = &self.auth else {
             return Err(self.refuse(Refusal::Unkeyed));
         };
-        if let Message::Hello(_) = msg {
+        if pdu.kind() == Some(MessageKind::Hello) {
             // Replayable by design: its only effects are a welcome and `on_hello`.
-            return if auth.verify(stream, pdu.body(), Freshness::HELLO, pdu.tag()) {
-                Ok(msg)
-            } else {
-                Err(self.refuse(Refusal::Mac))
-            };
+            if !auth.verify(stream, pdu.body(), Freshness::HELLO, pdu.tag()) {
+                return Err(self.refuse(Refusal::Mac));
+            }
+            return Ok(pdu.message()?);
         }
         let counter = self.rx.resolve(pdu.freshness_byte());
         let fv = Freshness {
@@ -775,6 +786,7 @@ impl Endpoint for CarSecurity {
         if let Err(r) = self.rx.check(counter) {
             return Err(self.refuse(r));
         }
+        let msg = pdu.message()?;
         self.newest = self.rx.highest().is_none_or(|h| counter > h);
         self.rx.accept(counter);
         Ok(msg)
@@ -919,11 +931,16 @@ impl Endpoint for HostSecurity {
         Ok(bytes)
     }
 
+    /// Authenticates before it parses, but for a welcome (its MAC covers the freshness value it
+    /// carries, so it is decoded first): of any other PDU whose MAC does not verify, nothing is
+    /// decoded but the variant tag ([`SecuredPdu::kind`]).
     fn open(&mut self, stream: Stream, pdu: &[u8]) -> Result<Message, OpenError> {
         self.newest = false;
         let pdu = SecuredPdu::new_checked(pdu)?;
-        let msg = pdu.message()?;
-        if let Message::Welcome(w) = &msg {
+        if pdu.kind() == Some(MessageKind::Welcome)
+            && let msg = pdu.message()?
+            && let Message::Welcome(w) = &msg
+        {
             let fv = Freshness {
                 epoch: w.epoch,
                 counter: w.counter,
@@ -957,6 +974,7 @@ impl Endpoint for HostSecurity {
         if let Err(r) = s.rx.check(counter) {
             return Err(self.refuse(r));
         }
+        let msg = pdu.message()?;
         self.newest = s.rx.highest().is_none_or(|h| counter > h);
         if let Some(s) = &mut self.sync {
             s.rx.accept(counter);
@@ -968,7 +986,7 @@ impl Endpoint for HostSecurity {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::message::{CarStatus, MAX_MESSAGE_SIZE, MessageKind};
+    use crate::message::{CarStatus, MAX_MESSAGE_SIZE};
     use crate::stream::Direction;
     use cmac::{Cmac, Mac};
     use proptest::prelude::*;
@@ -1305,9 +1323,71 @@ mod tests {
         );
     }
 
+    /// A PDU of the right length and version whose payload does not decode and whose MAC does
+    /// not verify: refused as a forgery and counted, on either side, whatever variant tag it
+    /// starts with (its payload is never decoded). Before 2026-12-03 both sides decoded first,
+    /// and called such bytes a decode error.
+    #[test]
+    fn a_strangers_bytes_are_refused_before_they_are_decoded() {
+        let mut car = CarSecurity::new(&KEY, 9);
+        let mut host = HostSecurity::assume_fresh_car(&KEY, 9);
+        for tag in [MessageKind::Hello as u8, MessageKind::Feedback as u8, 0x7f] {
+            // The tag, then bytes no message decodes from (a varint that never ends).
+            let pdu = [
+                PROTOCOL_VERSION,
+                tag,
+                0xff,
+                0xff,
+                0xff,
+                0xff,
+                0xff,
+                0,
+                1,
+                2,
+                3,
+                4,
+            ];
+            let bad = SecuredPdu::new_checked(&pdu).unwrap();
+            assert!(bad.message().is_err(), "tag {tag}");
+            let to_car = stream(MessageKind::Feedback, Direction::HostToCar);
+            assert_eq!(
+                car.open(to_car, &pdu),
+                Err(OpenError::Refused(Refusal::Mac))
+            );
+            let to_host = stream(MessageKind::Ack, Direction::CarToHost);
+            assert_eq!(
+                host.open(to_host, &pdu),
+                Err(OpenError::Refused(Refusal::Mac))
+            );
+        }
+        assert_eq!(car.refusals().mac, 3);
+        assert_eq!(host.refusals().mac, 3);
+    }
+
+    /// An authentic, fresh PDU whose payload does not decode (a heartbeat with a byte too many,
+    /// MAC'd with the key): a decode error, and its counter is not taken.
+    #[test]
+    fn an_authentic_pdu_that_does_not_decode_takes_no_counter() {
+        let mut car = CarSecurity::new(&KEY, 9);
+        let s = stream(MessageKind::Heartbeat, Direction::HostToCar);
+        let fv = Freshness {
+            epoch: 9,
+            counter: 0,
+        };
+        let mut pdu = vec![PROTOCOL_VERSION, MessageKind::Heartbeat as u8, 0xaa];
+        let tag = Authenticator::new(&KEY).tag(s, &pdu, fv);
+        pdu.push(0);
+        pdu.extend_from_slice(&tag);
+        assert!(matches!(car.open(s, &pdu), Err(OpenError::Decode(_))));
+        assert_eq!(car.refusals().total(), 0);
+        assert_eq!(car.host_next(), 0);
+        let mut host = HostSecurity::assume_fresh_car(&KEY, 9);
+        let good = sealed(&mut host, &Message::Heartbeat, s);
+        assert_eq!(car.open(s, &good), Ok(Message::Heartbeat));
+        assert_eq!(car.host_next(), 1);
+    }
+
     proptest! {
-        /// Any bytes: a message, or a refusal / decode error, never a panic; and never accepted
-        /// without the key.
         /// The MAC equals the independent implementation's over `CAN id ‖ body ‖ freshness`,
         /// for any key and any body length (whole blocks, padded ones, several blocks), and
         /// `verify` accepts exactly the truncated tag.
@@ -1336,6 +1416,8 @@ mod tests {
             prop_assert!(!auth.verify(s, &body, fv, &tag[..MAC_LEN - 1]));
         }
 
+        /// Any bytes: a message, or a refusal / decode error, never a panic; and never accepted
+        /// without the key.
         #[test]
         fn forged_bytes_are_never_accepted(bytes in proptest::collection::vec(any::<u8>(), 0..200)) {
             let mut car = CarSecurity::new(&KEY, 9);
