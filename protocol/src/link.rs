@@ -131,12 +131,13 @@ pub fn transmit<B: CanBus, E: Endpoint + ?Sized>(
 pub enum LinkError {
     /// Its stream could not be reassembled.
     Reassembly(Stream, ReassemblyError),
-    /// It did not decode.
+    /// Too short or of another version; or authentic and fresh, and its payload did not decode.
     Decode(Stream, DecodeError),
     /// It decoded, but does not belong on the stream it came on.
     WrongStream(Stream, MessageKind),
-    /// It decoded but failed authentication or freshness: a forgery, a replay, a message of
-    /// another epoch. Counted by the endpoint; never reported on the bus.
+    /// It failed authentication or freshness, checked before its payload is decoded (but for a
+    /// welcome, on the host): a forgery, a replay, a message of another epoch, a corrupted
+    /// frame. Counted by the endpoint; never reported on the bus.
     Refused(Stream, Refusal),
 }
 
