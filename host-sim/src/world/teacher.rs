@@ -442,15 +442,11 @@ impl Teacher {
     fn perceive(&mut self, j: &mut Judgement) {
         let table = j.evaluation.table();
         let allowed = j.evaluation.allowed();
-        // Every score once: the best is `policy::select`'s (highest, lowest index on ties).
+        // Every score once, and the best: `policy::select`'s (highest, lowest index on ties),
+        // with the score of every allowed action kept (on a host from the sealed table's
+        // columns, every action side by side: the same bits as `policy::scores`).
         let mut score = [0.0f32; MAX_ACTIONS];
-        policy::scores(&self.spec.weights, table, allowed, &mut score);
-        let mut best: Option<ActionIndex> = None;
-        for a in allowed {
-            if !best.is_some_and(|b| score[a.get()] <= score[b.get()]) {
-                best = Some(a);
-            }
-        }
+        let best = policy::select_scored(&self.spec.weights, table, allowed, &mut score);
         let latent = &mut j.latent;
         let perceived = &mut j.perceived;
         latent.fill(0.0);
@@ -635,6 +631,57 @@ mod tests {
         assert!(end.y < 0.0, "{best}: {end:?}");
         // Straight ahead passes the door: a correction.
         assert!(t.corrects(&j, ActionIndex::FIRST));
+    }
+
+    #[test]
+    fn the_best_and_the_losses_are_those_of_the_scores_one_by_one() {
+        // The judgement takes the scores and the best from `policy::select_scored` (on a host
+        // from the sealed table's columns): the same as scoring every allowed action's row with
+        // `policy::score` and taking the first of the highest, as it did. Ticks of `doors` with
+        // seeded random actions, the preset's weights, weights that tie everything (zero) and
+        // random ones.
+        use crate::world::sim::Episode;
+        let scenario = std::sync::Arc::new(crate::world::registry::load_scenario("doors").unwrap());
+        let mut e = Episode::new(scenario);
+        let mut uniform = crate::world::test_uniform(0x51_7cc1_b727_220a);
+        let doors = TeacherSpec::from_preset(preset("doors").unwrap()).weights;
+        for tick in 0..400 {
+            let obs = e.observe_near();
+            let random: Weights = std::array::from_fn(|_| ((uniform() - 0.5) * 20.0) as f32);
+            for w in [doors, [0.0; 6], random] {
+                let mut t = Teacher::new(TeacherSpec::with_weights(None, w), 1);
+                let j = t.judge(&obs).unwrap();
+                let table = j.evaluation.table();
+                let mut best: Option<ActionIndex> = None;
+                for a in j.allowed() {
+                    let s = policy::score(&w, table, a);
+                    if !best.is_some_and(|b| s <= policy::score(&w, table, b)) {
+                        best = Some(a);
+                    }
+                }
+                assert_eq!(j.best, best, "tick {tick}, {w:?}");
+                if let Some(b) = best {
+                    let top = policy::score(&w, table, b);
+                    for a in j.allowed() {
+                        let l = top - policy::score(&w, table, a);
+                        assert_eq!(j.latent_loss(a).to_bits(), l.to_bits(), "tick {tick}");
+                    }
+                }
+            }
+            let allowed: Vec<_> = e
+                .observe_near()
+                .check()
+                .map(|v| {
+                    firmware_core::evaluator::Evaluator::new()
+                        .evaluation(v)
+                        .allowed()
+                })
+                .unwrap()
+                .iter()
+                .collect();
+            let pick = (uniform() * allowed.len() as f64) as usize;
+            e.drive(allowed.get(pick).copied());
+        }
     }
 
     #[test]
