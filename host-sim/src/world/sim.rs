@@ -515,9 +515,10 @@ fn observe_within(
     // as they are.
     let first = order.partition_point(|&j| cut[usize::from(j) & (SCAN_BEAMS - 1)] <= free);
     let (skip_points, mut hits) = (cast_first.get(), 0u64);
+    let directions = &*BEAM_DIRECTIONS;
     for &j in &order[first..] {
         let j = usize::from(j) & (SCAN_BEAMS - 1);
-        let (bc, bs) = BEAM_DIRECTIONS[j];
+        let (bc, bs) = directions[j];
         let cut = cut[j];
         // The beam's direction in the grid's frame, once for both tests below.
         let along = map.grid_direction((cos * bc - sin * bs, sin * bc + cos * bs));
