@@ -447,8 +447,27 @@ impl Teacher {
         // columns, every action side by side: the same bits as `policy::scores`).
         let mut score = [0.0f32; MAX_ACTIONS];
         let best = policy::select_scored(&self.spec.weights, table, allowed, &mut score);
-        let latent = &mut j.latent;
-        let perceived = &mut j.perceived;
+        let choice = match best {
+            Some(b) if self.spec.noise <= 0.0 => {
+                noiseless_losses(&score, b, allowed, &mut j.latent, &mut j.perceived)
+            }
+            _ => self.losses_one_by_one(&score, best, allowed, &mut j.latent, &mut j.perceived),
+        };
+        j.best = best;
+        j.choice = choice;
+    }
+
+    /// The latent and perceived losses of every allowed action (0 for the others), one action
+    /// at a time in index order, a draw of noise each when the teacher has noise; and the
+    /// teacher's choice, the first of the least perceived losses as it compares them.
+    fn losses_one_by_one(
+        &mut self,
+        score: &[f32; MAX_ACTIONS],
+        best: Option<ActionIndex>,
+        allowed: ActionMask,
+        latent: &mut [f32; MAX_ACTIONS],
+        perceived: &mut [f32; MAX_ACTIONS],
+    ) -> Option<ActionIndex> {
         latent.fill(0.0);
         perceived.fill(0.0);
         let mut choice: Option<(ActionIndex, f32)> = None;
@@ -471,8 +490,7 @@ impl Teacher {
                 }
             }
         }
-        j.best = best;
-        j.choice = choice.map(|(a, _)| a);
+        choice.map(|(a, _)| a)
     }
 
     /// Whether the teacher corrects the learner's action `chosen`.
@@ -600,6 +618,49 @@ pub fn statement_quantities(
     }
 }
 
+/// [`Teacher::losses_one_by_one`] for a teacher without noise (which draws nothing), `best`
+/// the first of the highest scores of the allowed actions: every action's losses side by side,
+/// without a test per allowed action (the same bits: `top − score` and that plus 0, a forbidden
+/// action's 0). Its choice is `best` itself: every perceived loss is its latent one (no score
+/// is −0, so none of the differences is, and adding 0 changes none of them), none is below 0
+/// (no allowed score is above the highest) and the first at 0 is the first of the highest
+/// scores. Where a loss is NaN (no checked table and finite weights give one), the choice is
+/// compared one by one as the teacher with noise compares it.
+fn noiseless_losses(
+    score: &[f32; MAX_ACTIONS],
+    best: ActionIndex,
+    allowed: ActionMask,
+    latent: &mut [f32; MAX_ACTIONS],
+    perceived: &mut [f32; MAX_ACTIONS],
+) -> Option<ActionIndex> {
+    let top = score[best.get()];
+    let bits = allowed.bits();
+    let mut nan = false;
+    for (a, ((l, p), &s)) in latent
+        .iter_mut()
+        .zip(perceived.iter_mut())
+        .zip(score)
+        .enumerate()
+    {
+        let loss = if bits >> a & 1 != 0 { top - s } else { 0.0 };
+        nan |= loss.is_nan();
+        *l = loss;
+        *p = loss + 0.0;
+    }
+    if !nan {
+        return Some(best);
+    }
+    let mut choice: Option<(ActionIndex, f32)> = None;
+    for a in allowed {
+        let p = perceived[a.get()];
+        match choice {
+            Some((_, c)) if p >= c => {}
+            _ => choice = Some((a, p)),
+        }
+    }
+    choice.map(|(a, _)| a)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -682,6 +743,46 @@ mod tests {
             let pick = (uniform() * allowed.len() as f64) as usize;
             e.drive(allowed.get(pick).copied());
         }
+    }
+
+    #[test]
+    fn noiseless_losses_are_the_losses_one_by_one() {
+        // Random scores (many tied, some NaN) and masks, the best as the teacher takes it: the
+        // same losses, bit for bit, and the same choice as the comparisons one by one.
+        let mut uniform = crate::world::test_uniform(0x6a09_e667_f3bc_c909);
+        let mut t = Teacher::new(TeacherSpec::with_weights(None, [0.0; 6]), 1);
+        let mut with_nan = 0;
+        for round in 0..20_000 {
+            let levels = 1 + (uniform() * 6.0) as usize;
+            let mut score: [f32; MAX_ACTIONS] =
+                std::array::from_fn(|_| ((uniform() * levels as f64) as f32 - 2.0) * 0.75);
+            if round % 5 == 0 {
+                score[(uniform() * 64.0) as usize] = f32::NAN;
+            }
+            let allowed = ActionMask::from_bits(
+                (uniform() * (u64::MAX as f64)) as u64 & (uniform() * (u64::MAX as f64)) as u64,
+            );
+            // The best as the teacher takes it (`policy::select_scored`'s comparisons).
+            let mut best: Option<ActionIndex> = None;
+            for a in allowed {
+                if !best.is_some_and(|b| score[a.get()] <= score[b.get()]) {
+                    best = Some(a);
+                }
+            }
+            let Some(best) = best else {
+                continue;
+            };
+            with_nan += usize::from(allowed.iter().any(|a| score[a.get()].is_nan()));
+            let (mut l1, mut p1, mut l2, mut p2) = ([1.0; 64], [1.0; 64], [2.0; 64], [2.0; 64]);
+            let one = t.losses_one_by_one(&score, Some(best), allowed, &mut l1, &mut p1);
+            let wide = noiseless_losses(&score, best, allowed, &mut l2, &mut p2);
+            assert_eq!(one, wide, "round {round}");
+            for a in 0..MAX_ACTIONS {
+                assert_eq!(l1[a].to_bits(), l2[a].to_bits(), "round {round} action {a}");
+                assert_eq!(p1[a].to_bits(), p2[a].to_bits(), "round {round} action {a}");
+            }
+        }
+        assert!(with_nan > 500, "{with_nan} with a NaN");
     }
 
     #[test]
