@@ -108,7 +108,14 @@ pub fn sin_cos(angle: f64) -> (f64, f64) {
 /// Wraps an angle into `[−π, π]`.
 pub fn wrap_angle(a: f64) -> f64 {
     use std::f64::consts::PI;
-    let mut w = a - 2.0 * PI * libm::floor((a + PI) / (2.0 * PI));
+    let q = (a + PI) / (2.0 * PI);
+    // `a − 2π·⌊q⌋`, whose floor is 0 for `q` in `[0, 1)` (most angles, already wrapped): then
+    // it is `a − (+0)`, which is `a` bit for bit (−0 included), without the call to `floor`.
+    let mut w = if (0.0..1.0).contains(&q) {
+        a
+    } else {
+        a - 2.0 * PI * libm::floor(q)
+    };
     if w > PI {
         w -= 2.0 * PI;
     }
@@ -867,6 +874,49 @@ mod tests {
             let err =
                 ((car.pose.x - e.x as f64).powi(2) + (car.pose.y - e.y as f64).powi(2)).sqrt();
             assert!(err < 0.06, "{a}: end error {err} m");
+        }
+    }
+
+    #[test]
+    fn wrap_angle_is_its_formula_bit_for_bit() {
+        // The formula with `floor` for every angle, the shortcut where the floor is 0: random
+        // angles, those near every multiple of π up to ±9π (a few ulps either side), ±0,
+        // tiny ones and the non-finite.
+        use std::f64::consts::PI;
+        let formula = |a: f64| {
+            let mut w = a - 2.0 * PI * libm::floor((a + PI) / (2.0 * PI));
+            if w > PI {
+                w -= 2.0 * PI;
+            }
+            if w < -PI {
+                w += 2.0 * PI;
+            }
+            w
+        };
+        let mut angles = vec![
+            0.0,
+            -0.0,
+            1e-300,
+            -1e-300,
+            f64::NAN,
+            f64::INFINITY,
+            -f64::INFINITY,
+        ];
+        for k in -9..=9 {
+            let centre = f64::from(k) * PI;
+            let mut up = centre;
+            let mut down = centre;
+            for _ in 0..40 {
+                angles.extend([up, down]);
+                up = up.next_up();
+                down = down.next_down();
+            }
+        }
+        let mut uniform = crate::world::test_uniform(0x0bad_5eed_1234_5678);
+        angles.extend((0..200_000).map(|_| (uniform() - 0.5) * 40.0));
+        angles.extend((0..200_000).map(|_| (uniform() - 0.5) * 2.0 * PI));
+        for a in angles {
+            assert_eq!(wrap_angle(a).to_bits(), formula(a).to_bits(), "{a:e}");
         }
     }
 

@@ -41,6 +41,7 @@
 //! The projection onto the path searches only 1 m behind to 2 m ahead of the previous one, so it
 //! cannot jump to a neighbouring hallway.
 
+use std::cell::Cell;
 use std::sync::{Arc, LazyLock};
 
 use firmware_core::evaluator::beam_direction;
@@ -145,6 +146,11 @@ pub struct Episode {
     /// Per beam, its [`scan_cut`] and a cell more, in cells of the scenario's map (what
     /// [`Episode::observe_near`] reads the clearance along before it casts a beam).
     cut_cells: [f64; SCAN_BEAMS],
+    /// The beams that [`Episode::observe_near`] found short of their cut last time (one bit
+    /// each): it casts them again without its point tests first, which would most likely not
+    /// settle them. Only which test runs first depends on it, never a range (see
+    /// `observe_within`).
+    scan_hits: Cell<u64>,
     car: CarState,
     /// Arc length of the car's projection onto the path.
     s: f64,
@@ -171,6 +177,7 @@ impl Episode {
         let cut_cells = cut_cells(&scenario.map);
         let mut e = Self {
             cut_cells,
+            scan_hits: Cell::new(0),
             car: CarState::at(start),
             start,
             scenario,
@@ -256,6 +263,8 @@ impl Episode {
             self.s,
             &SCAN_CUT,
             &self.cut_cells,
+            &SCAN_CUT_ORDER,
+            &self.scan_hits,
         )
     }
 
@@ -435,8 +444,28 @@ pub fn observe(scenario: &Scenario, car: &CarState, s: f64) -> Observation {
         s,
         &[SCAN_MAX_RANGE as f64; SCAN_BEAMS],
         &[0.0; SCAN_BEAMS],
+        &BEAMS_IN_ORDER,
+        &Cell::new(0),
     )
 }
+
+/// The beams by number (every cut the same: in order of their cuts).
+const BEAMS_IN_ORDER: [u8; SCAN_BEAMS] = {
+    let mut order = [0u8; SCAN_BEAMS];
+    let mut j = 0;
+    while j < SCAN_BEAMS {
+        order[j] = j as u8;
+        j += 1;
+    }
+    order
+};
+
+/// The beams in order of their [`scan_cut`], shortest first (by number among equal cuts).
+static SCAN_CUT_ORDER: LazyLock<[u8; SCAN_BEAMS]> = LazyLock::new(|| {
+    let mut order = BEAMS_IN_ORDER;
+    order.sort_by(|&a, &b| SCAN_CUT[usize::from(a)].total_cmp(&SCAN_CUT[usize::from(b)]));
+    order
+});
 
 /// Per beam, its [`scan_cut`] and a cell more in cells of `map` (`(cut + resolution) /
 /// resolution`, as [`OccupancyGrid::free_by_points_from`] computes it from the length).
@@ -450,17 +479,24 @@ fn cut_cells(map: &crate::world::map::OccupancyGrid) -> [f64; SCAN_BEAMS] {
 /// [`observe`] with beam `j` cast only to `cut[j]` (at most [`SCAN_MAX_RANGE`]): a beam that
 /// reaches it reads `SCAN_MAX_RANGE`, every other the range `observe` gives it (the same
 /// traversal, stopped earlier). `cut_cells[j]` is `cut[j]` and a cell more in cells of the map
-/// ([`cut_cells`]), read for the beams cut short of `SCAN_MAX_RANGE` only.
+/// ([`cut_cells`]), read for the beams cut short of `SCAN_MAX_RANGE` only. `order` holds every
+/// beam once, in order of their cuts (shortest first).
+///
+/// The beams in `cast_first` are cast without the point tests before (those tests settle only
+/// beams whose cast would reach the cut, so the ranges are the same whichever beams skip them);
+/// it is then set to the beams whose cast stopped short of their cut (one bit each), a hint for
+/// the next tick's scan.
 fn observe_within(
     scenario: &Scenario,
     car: &CarState,
     s: f64,
     cut: &[f64; SCAN_BEAMS],
     cut_cells: &[f64; SCAN_BEAMS],
+    order: &[u8; SCAN_BEAMS],
+    cast_first: &Cell<u64>,
 ) -> Observation {
     let pose = car.pose;
     let map = &scenario.map;
-    let mut scan = Scan::EMPTY;
     // Each beam's direction: its unit vector in the car frame turned by the heading.
     let rotation = pose.rotation();
     let (sin, cos) = (rotation.sin_angle(), rotation.cos_angle());
@@ -472,28 +508,33 @@ fn observe_within(
     // Each range quantized to the wire's step as it is made (`quantize_but_scan` below leaves
     // the scan as it is): the sensor's range, most beams', once.
     let far = quantize_range(SCAN_MAX_RANGE);
-    for (j, ((&(bc, bs), &cut), &cells)) in
-        BEAM_DIRECTIONS.iter().zip(cut).zip(cut_cells).enumerate()
-    {
-        if cut <= free {
-            scan.ranges[j] = far;
-            continue;
-        }
+    let mut scan = Scan {
+        ranges: [far; SCAN_BEAMS],
+    };
+    // The beams whose cut is within the free square come first in `order`: they read `far`
+    // as they are.
+    let first = order.partition_point(|&j| cut[usize::from(j) & (SCAN_BEAMS - 1)] <= free);
+    let (skip_points, mut hits) = (cast_first.get(), 0u64);
+    let directions = &*BEAM_DIRECTIONS;
+    for &j in &order[first..] {
+        let j = usize::from(j) & (SCAN_BEAMS - 1);
+        let (bc, bs) = directions[j];
+        let cut = cut[j];
         // The beam's direction in the grid's frame, once for both tests below.
         let along = map.grid_direction((cos * bc - sin * bs, sin * bc + cos * bs));
         // Free a cell beyond the cut: the cast would reach the cut (no cast needed).
         if cut < SCAN_MAX_RANGE as f64
-            && map.free_by_points_in_grid(&view, along, cells, SCAN_FREE_POINTS)
+            && skip_points >> j & 1 == 0
+            && map.free_by_points_in_grid(&view, along, cut_cells[j], SCAN_FREE_POINTS)
         {
-            scan.ranges[j] = far;
             continue;
         }
         let r = map.raycast_in_grid(&view, along, cut);
-        scan.ranges[j] = if r >= cut {
-            far
-        } else {
-            quantize_range((r as f32).min(SCAN_MAX_RANGE))
-        };
+        if r >= cut {
+            continue;
+        }
+        scan.ranges[j] = quantize_range((r as f32).min(SCAN_MAX_RANGE));
+        hits |= 1 << j;
     }
     let iso = pose.isometry_turned(rotation);
     let objects = detect_from(scenario, pose, &iso, &view);
@@ -501,6 +542,7 @@ fn observe_within(
     let local = iso.inverse_transform_point(&r);
     let pi = std::f32::consts::PI;
     let heading = (wrap_angle(rh - pose.theta) as f32).clamp(-pi, pi);
+    cast_first.set(hits);
     quantize_but_scan(Observation {
         scan,
         objects,
@@ -861,6 +903,67 @@ mod tests {
             }
             assert!(cut_beams > 0, "{}: some beam was cut", builtin.name);
         }
+    }
+
+    #[test]
+    fn the_scan_is_the_same_whichever_beams_skip_the_point_tests() {
+        // The beams cast first (without the point tests) are a hint only: none, every one, the
+        // hits of the tick before (as `observe_near` runs) and seeded random sets give the same
+        // observation, bit for bit, on every built-in scenario; and the hits are the beams cut
+        // short of their cut.
+        let order = *SCAN_CUT_ORDER;
+        let mut sorted = order;
+        sorted.sort_unstable();
+        assert_eq!(sorted, BEAMS_IN_ORDER, "every beam once");
+        assert!(order.windows(2).all(|w| {
+            let (a, b) = (SCAN_CUT[usize::from(w[0])], SCAN_CUT[usize::from(w[1])]);
+            a < b || (a == b && w[0] < w[1])
+        }));
+        let mut uniform = crate::world::test_uniform(0x2545_f491_4f6c_dd1d);
+        let mut skipped_hits = 0;
+        for builtin in crate::world::registry::SCENARIOS {
+            let scenario = Arc::new(crate::world::registry::load_scenario(builtin.name).unwrap());
+            let mut e = Episode::new(scenario);
+            let mut evaluator = firmware_core::evaluator::Evaluator::new();
+            for tick in 0..300 {
+                let hint = e.scan_hits.get();
+                let near = e.observe_near();
+                let hits = e.scan_hits.get();
+                let random = (uniform() * (u64::MAX as f64)) as u64;
+                for cast_first in [0, u64::MAX, hint, random, !hint] {
+                    let cell = Cell::new(cast_first);
+                    let again = observe_within(
+                        &e.scenario,
+                        &e.car,
+                        e.s,
+                        &SCAN_CUT,
+                        &e.cut_cells,
+                        &SCAN_CUT_ORDER,
+                        &cell,
+                    );
+                    assert_eq!(
+                        format!("{again:?}"),
+                        format!("{near:?}"),
+                        "{} tick {tick}",
+                        builtin.name
+                    );
+                    assert_eq!(cell.get(), hits, "{} tick {tick}", builtin.name);
+                }
+                for j in 0..SCAN_BEAMS {
+                    let short = near.scan.ranges[j] != SCAN_MAX_RANGE;
+                    assert_eq!(hits >> j & 1 == 1, short, "{} beam {j}", builtin.name);
+                    skipped_hits += usize::from(short && hint >> j & 1 == 1);
+                }
+                let allowed: Vec<_> = evaluator
+                    .evaluation(near.check().unwrap())
+                    .allowed()
+                    .iter()
+                    .collect();
+                let pick = (uniform() * allowed.len() as f64) as usize;
+                e.drive(allowed.get(pick).copied());
+            }
+        }
+        assert!(skipped_hits > 1000, "{skipped_hits} hits cast first");
     }
 
     #[test]

@@ -442,17 +442,32 @@ impl Teacher {
     fn perceive(&mut self, j: &mut Judgement) {
         let table = j.evaluation.table();
         let allowed = j.evaluation.allowed();
-        // Every score once: the best is `policy::select`'s (highest, lowest index on ties).
+        // Every score once, and the best: `policy::select`'s (highest, lowest index on ties),
+        // with the score of every allowed action kept (on a host from the sealed table's
+        // columns, every action side by side: the same bits as `policy::scores`).
         let mut score = [0.0f32; MAX_ACTIONS];
-        policy::scores(&self.spec.weights, table, allowed, &mut score);
-        let mut best: Option<ActionIndex> = None;
-        for a in allowed {
-            if !best.is_some_and(|b| score[a.get()] <= score[b.get()]) {
-                best = Some(a);
+        let best = policy::select_scored(&self.spec.weights, table, allowed, &mut score);
+        let choice = match best {
+            Some(b) if self.spec.noise <= 0.0 => {
+                noiseless_losses(&score, b, allowed, &mut j.latent, &mut j.perceived)
             }
-        }
-        let latent = &mut j.latent;
-        let perceived = &mut j.perceived;
+            _ => self.losses_one_by_one(&score, best, allowed, &mut j.latent, &mut j.perceived),
+        };
+        j.best = best;
+        j.choice = choice;
+    }
+
+    /// The latent and perceived losses of every allowed action (0 for the others), one action
+    /// at a time in index order, a draw of noise each when the teacher has noise; and the
+    /// teacher's choice, the first of the least perceived losses as it compares them.
+    fn losses_one_by_one(
+        &mut self,
+        score: &[f32; MAX_ACTIONS],
+        best: Option<ActionIndex>,
+        allowed: ActionMask,
+        latent: &mut [f32; MAX_ACTIONS],
+        perceived: &mut [f32; MAX_ACTIONS],
+    ) -> Option<ActionIndex> {
         latent.fill(0.0);
         perceived.fill(0.0);
         let mut choice: Option<(ActionIndex, f32)> = None;
@@ -475,8 +490,7 @@ impl Teacher {
                 }
             }
         }
-        j.best = best;
-        j.choice = choice.map(|(a, _)| a);
+        choice.map(|(a, _)| a)
     }
 
     /// Whether the teacher corrects the learner's action `chosen`.
@@ -604,6 +618,49 @@ pub fn statement_quantities(
     }
 }
 
+/// [`Teacher::losses_one_by_one`] for a teacher without noise (which draws nothing), `best`
+/// the first of the highest scores of the allowed actions: every action's losses side by side,
+/// without a test per allowed action (the same bits: `top − score` and that plus 0, a forbidden
+/// action's 0). Its choice is `best` itself: every perceived loss is its latent one (no score
+/// is −0, so none of the differences is, and adding 0 changes none of them), none is below 0
+/// (no allowed score is above the highest) and the first at 0 is the first of the highest
+/// scores. Where a loss is NaN (no checked table and finite weights give one), the choice is
+/// compared one by one as the teacher with noise compares it.
+fn noiseless_losses(
+    score: &[f32; MAX_ACTIONS],
+    best: ActionIndex,
+    allowed: ActionMask,
+    latent: &mut [f32; MAX_ACTIONS],
+    perceived: &mut [f32; MAX_ACTIONS],
+) -> Option<ActionIndex> {
+    let top = score[best.get()];
+    let bits = allowed.bits();
+    let mut nan = false;
+    for (a, ((l, p), &s)) in latent
+        .iter_mut()
+        .zip(perceived.iter_mut())
+        .zip(score)
+        .enumerate()
+    {
+        let loss = if bits >> a & 1 != 0 { top - s } else { 0.0 };
+        nan |= loss.is_nan();
+        *l = loss;
+        *p = loss + 0.0;
+    }
+    if !nan {
+        return Some(best);
+    }
+    let mut choice: Option<(ActionIndex, f32)> = None;
+    for a in allowed {
+        let p = perceived[a.get()];
+        match choice {
+            Some((_, c)) if p >= c => {}
+            _ => choice = Some((a, p)),
+        }
+    }
+    choice.map(|(a, _)| a)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -635,6 +692,97 @@ mod tests {
         assert!(end.y < 0.0, "{best}: {end:?}");
         // Straight ahead passes the door: a correction.
         assert!(t.corrects(&j, ActionIndex::FIRST));
+    }
+
+    #[test]
+    fn the_best_and_the_losses_are_those_of_the_scores_one_by_one() {
+        // The judgement takes the scores and the best from `policy::select_scored` (on a host
+        // from the sealed table's columns): the same as scoring every allowed action's row with
+        // `policy::score` and taking the first of the highest, as it did. Ticks of `doors` with
+        // seeded random actions, the preset's weights, weights that tie everything (zero) and
+        // random ones.
+        use crate::world::sim::Episode;
+        let scenario = std::sync::Arc::new(crate::world::registry::load_scenario("doors").unwrap());
+        let mut e = Episode::new(scenario);
+        let mut uniform = crate::world::test_uniform(0x51_7cc1_b727_220a);
+        let doors = TeacherSpec::from_preset(preset("doors").unwrap()).weights;
+        for tick in 0..400 {
+            let obs = e.observe_near();
+            let random: Weights = std::array::from_fn(|_| ((uniform() - 0.5) * 20.0) as f32);
+            for w in [doors, [0.0; 6], random] {
+                let mut t = Teacher::new(TeacherSpec::with_weights(None, w), 1);
+                let j = t.judge(&obs).unwrap();
+                let table = j.evaluation.table();
+                let mut best: Option<ActionIndex> = None;
+                for a in j.allowed() {
+                    let s = policy::score(&w, table, a);
+                    if !best.is_some_and(|b| s <= policy::score(&w, table, b)) {
+                        best = Some(a);
+                    }
+                }
+                assert_eq!(j.best, best, "tick {tick}, {w:?}");
+                if let Some(b) = best {
+                    let top = policy::score(&w, table, b);
+                    for a in j.allowed() {
+                        let l = top - policy::score(&w, table, a);
+                        assert_eq!(j.latent_loss(a).to_bits(), l.to_bits(), "tick {tick}");
+                    }
+                }
+            }
+            let allowed: Vec<_> = e
+                .observe_near()
+                .check()
+                .map(|v| {
+                    firmware_core::evaluator::Evaluator::new()
+                        .evaluation(v)
+                        .allowed()
+                })
+                .unwrap()
+                .iter()
+                .collect();
+            let pick = (uniform() * allowed.len() as f64) as usize;
+            e.drive(allowed.get(pick).copied());
+        }
+    }
+
+    #[test]
+    fn noiseless_losses_are_the_losses_one_by_one() {
+        // Random scores (many tied, some NaN) and masks, the best as the teacher takes it: the
+        // same losses, bit for bit, and the same choice as the comparisons one by one.
+        let mut uniform = crate::world::test_uniform(0x6a09_e667_f3bc_c909);
+        let mut t = Teacher::new(TeacherSpec::with_weights(None, [0.0; 6]), 1);
+        let mut with_nan = 0;
+        for round in 0..20_000 {
+            let levels = 1 + (uniform() * 6.0) as usize;
+            let mut score: [f32; MAX_ACTIONS] =
+                std::array::from_fn(|_| ((uniform() * levels as f64) as f32 - 2.0) * 0.75);
+            if round % 5 == 0 {
+                score[(uniform() * 64.0) as usize] = f32::NAN;
+            }
+            let allowed = ActionMask::from_bits(
+                (uniform() * (u64::MAX as f64)) as u64 & (uniform() * (u64::MAX as f64)) as u64,
+            );
+            // The best as the teacher takes it (`policy::select_scored`'s comparisons).
+            let mut best: Option<ActionIndex> = None;
+            for a in allowed {
+                if !best.is_some_and(|b| score[a.get()] <= score[b.get()]) {
+                    best = Some(a);
+                }
+            }
+            let Some(best) = best else {
+                continue;
+            };
+            with_nan += usize::from(allowed.iter().any(|a| score[a.get()].is_nan()));
+            let (mut l1, mut p1, mut l2, mut p2) = ([1.0; 64], [1.0; 64], [2.0; 64], [2.0; 64]);
+            let one = t.losses_one_by_one(&score, Some(best), allowed, &mut l1, &mut p1);
+            let wide = noiseless_losses(&score, best, allowed, &mut l2, &mut p2);
+            assert_eq!(one, wide, "round {round}");
+            for a in 0..MAX_ACTIONS {
+                assert_eq!(l1[a].to_bits(), l2[a].to_bits(), "round {round} action {a}");
+                assert_eq!(p1[a].to_bits(), p2[a].to_bits(), "round {round} action {a}");
+            }
+        }
+        assert!(with_nan > 500, "{with_nan} with a NaN");
     }
 
     #[test]

@@ -628,7 +628,11 @@ impl OccupancyGrid {
         if start < 2.0 || points == 0 {
             return false;
         }
-        let m = gdx.abs().max(gdy.abs());
+        // The greater of two numbers as `f64::max` gives it when neither is NaN, without its
+        // NaN handling: a NaN direction puts every point outside the grid (`padded_at` is
+        // `None` for NaN), which settles nothing before `m` or `free` is read.
+        let greater = |a: f64, b: f64| if a > b { a } else { b };
+        let m = greater(gdx.abs(), gdy.abs());
         // The free stretch so far: σ in [0, free).
         let mut free = start - 1.0;
         for i in 1..=points {
@@ -641,7 +645,7 @@ impl OccupancyGrid {
             if c < 1.0 || sigma - (c - 1.0) + MARGIN >= free - MARGIN {
                 return false;
             }
-            free = free.max(sigma + (c - 1.0));
+            free = greater(free, sigma + (c - 1.0));
         }
         free > cells * m + MARGIN
     }
