@@ -448,9 +448,16 @@ impl Teacher {
         let mut score = [0.0f32; MAX_ACTIONS];
         let best = policy::select_scored(&self.spec.weights, table, allowed, &mut score);
         let choice = match best {
-            Some(b) if self.spec.noise <= 0.0 => {
-                noiseless_losses(&score, b, allowed, &mut j.latent, &mut j.perceived)
-            }
+            Some(b) if self.spec.noise <= 0.0 => noiseless_losses(
+                &score,
+                b,
+                allowed,
+                &mut j.latent,
+                &mut j.perceived,
+            )
+            .or_else(|| {
+                self.losses_one_by_one(&score, best, allowed, &mut j.latent, &mut j.perceived)
+            }),
             _ => self.losses_one_by_one(&score, best, allowed, &mut j.latent, &mut j.perceived),
         };
         j.best = best;
@@ -624,8 +631,8 @@ pub fn statement_quantities(
 /// action's 0). Its choice is `best` itself: every perceived loss is its latent one (no score
 /// is −0, so none of the differences is, and adding 0 changes none of them), none is below 0
 /// (no allowed score is above the highest) and the first at 0 is the first of the highest
-/// scores. Where a loss is NaN (no checked table and finite weights give one), the choice is
-/// compared one by one as the teacher with noise compares it.
+/// scores. Where a loss is NaN (no checked table and finite weights give one), `None`: the
+/// caller takes the losses and the choice one by one ([`Teacher::losses_one_by_one`]).
 fn noiseless_losses(
     score: &[f32; MAX_ACTIONS],
     best: ActionIndex,
@@ -647,18 +654,7 @@ fn noiseless_losses(
         *l = loss;
         *p = loss + 0.0;
     }
-    if !nan {
-        return Some(best);
-    }
-    let mut choice: Option<(ActionIndex, f32)> = None;
-    for a in allowed {
-        let p = perceived[a.get()];
-        match choice {
-            Some((_, c)) if p >= c => {}
-            _ => choice = Some((a, p)),
-        }
-    }
-    choice.map(|(a, _)| a)
+    (!nan).then_some(best)
 }
 
 #[cfg(test)]
@@ -748,7 +744,8 @@ mod tests {
     #[test]
     fn noiseless_losses_are_the_losses_one_by_one() {
         // Random scores (many tied, some NaN) and masks, the best as the teacher takes it: the
-        // same losses, bit for bit, and the same choice as the comparisons one by one.
+        // same losses, bit for bit, and the same choice as the comparisons one by one (those
+        // themselves where a loss is NaN, which `noiseless_losses` says by `None`).
         let mut uniform = crate::world::test_uniform(0x6a09_e667_f3bc_c909);
         let mut t = Teacher::new(TeacherSpec::with_weights(None, [0.0; 6]), 1);
         let mut with_nan = 0;
@@ -775,7 +772,18 @@ mod tests {
             with_nan += usize::from(allowed.iter().any(|a| score[a.get()].is_nan()));
             let (mut l1, mut p1, mut l2, mut p2) = ([1.0; 64], [1.0; 64], [2.0; 64], [2.0; 64]);
             let one = t.losses_one_by_one(&score, Some(best), allowed, &mut l1, &mut p1);
-            let wide = noiseless_losses(&score, best, allowed, &mut l2, &mut p2);
+            // As `perceive` takes them: side by side, or one by one where a loss is NaN.
+            let side_by_side = noiseless_losses(&score, best, allowed, &mut l2, &mut p2);
+            let nan = allowed
+                .iter()
+                .any(|a| (score[best.get()] - score[a.get()]).is_nan());
+            assert_eq!(side_by_side.is_none(), nan, "round {round}");
+            for a in 0..MAX_ACTIONS {
+                assert_eq!(l1[a].to_bits(), l2[a].to_bits(), "round {round} action {a}");
+                assert_eq!(p1[a].to_bits(), p2[a].to_bits(), "round {round} action {a}");
+            }
+            let wide = side_by_side
+                .or_else(|| t.losses_one_by_one(&score, Some(best), allowed, &mut l2, &mut p2));
             assert_eq!(one, wide, "round {round}");
             for a in 0..MAX_ACTIONS {
                 assert_eq!(l1[a].to_bits(), l2[a].to_bits(), "round {round} action {a}");
