@@ -972,9 +972,10 @@ impl Evaluator {
     /// [`Evaluator::semantic`] on a wide target, every disc wider than the margin: the same
     /// values, [`LANES`] samples side by side. Each lane starts at the clip and takes the least
     /// of that and its clearance to each object whose reach comes within the lanes' bounding
-    /// box, by one formula without a branch (the general member loop's: the clip beyond the
-    /// reach, else the root less the radius, at least 0 and at most the clip; `newton_sqrt` for
-    /// every lane, the same bits as `sqrt` for a disc wider than the margin, since a sample
+    /// box, by one formula without a branch ([`least_with`]: the general member loop's value, the
+    /// clip beyond the reach, else the root less the radius, at least 0 and at most the clip,
+    /// taken into the least without its clip and reach test, which change no least; `newton_sqrt`
+    /// for every lane, the same bits as `sqrt` for a disc wider than the margin, since a sample
     /// within `f32::MIN_POSITIVE`'s root of the centre reads 0 either way). A sample no allowed trajectory has is
     /// written and never read; every other reads the least over the objects of the class
     /// within reach of its cluster, as the car's paths give it: an object out of a sample's
@@ -1008,14 +1009,10 @@ impl Evaluator {
                 if dx * dx + dy * dy >= o.reach2 {
                     continue;
                 }
-                let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
+                let (ox, oy, radius) = (o.x, o.y, o.radius);
                 for l in 0..LANES {
                     let (dx, dy) = (sx[l] - ox, sy[l] - oy);
-                    let d2 = dx * dx + dy * dy;
-                    let d = newton_sqrt(d2) - radius;
-                    let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
-                    let d = if d2 < reach2 { d } else { SEMANTIC_CLIP };
-                    least[l] = clipped(d, least[l]);
+                    least[l] = least_with(newton_sqrt(dx * dx + dy * dy) - radius, least[l]);
                 }
             }
             if least
@@ -1877,6 +1874,20 @@ static LANE_BOXES: [[[f32; 2]; 2]; LANE_CHUNKS] = {
     out
 };
 
+/// The least of `least` (at most [`SEMANTIC_CLIP`]) and the semantic clearance of a lane whose
+/// root less the object's radius is `d`: `d` at least 0, then the least. The same bits as the
+/// general member loop's value (the clip beyond the reach, else `d` at least 0 and at most the
+/// clip) taken into the least, without its clip and its test of the reach: where that value is
+/// the clip, `d` is at least the clip (beyond the reach, the root is at least the reach less
+/// rounding far below its millimetre of margin: `d` exceeds the clip), so the least is `least`
+/// either way (it is at most the clip); elsewhere both are the least of `d` at least 0 and
+/// `least` (tested on every case, `the_lane_formula_is_the_general_loops`).
+#[cfg(not(target_arch = "arm"))]
+#[inline(always)]
+fn least_with(d: f32, least: f32) -> f32 {
+    clipped(if d > 0.0 { d } else { 0.0 }, least)
+}
+
 /// The greater of `a` and `b` (no NaN here).
 #[cfg(not(target_arch = "arm"))]
 #[inline(always)]
@@ -2176,6 +2187,52 @@ mod tests {
                 bits(&tables[0]),
                 bits(&tables[2]),
                 "observation {i}: {obs:?}"
+            );
+        }
+    }
+
+    /// `least_with` is the general member loop's value taken into the least, bit for bit: on
+    /// random squared distances and radii, each reach's square and its neighbours, a sample on
+    /// the centre, and every least from 0 to the clip.
+    #[test]
+    fn the_lane_formula_is_the_general_loops() {
+        use crate::observation::MAX_OBJECT_RADIUS;
+        let mut rng = Rng(0x3c6e_f372_fe94_f82b);
+        let general = |d2: f32, o: &Disc, least: f32| {
+            let d = newton_sqrt(d2) - o.radius;
+            let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
+            clipped(if d2 < o.reach2 { d } else { SEMANTIC_CLIP }, least)
+        };
+        for i in 0..2_000_000u32 {
+            let radius = match i % 7 {
+                0 => REACH_MARGIN,
+                1 => MAX_OBJECT_RADIUS,
+                2 => rng.range(REACH_MARGIN, 0.05),
+                _ => rng.range(REACH_MARGIN, MAX_OBJECT_RADIUS),
+            };
+            let o = Disc::new(rng.range(-4.0, 4.0), rng.range(-4.0, 4.0), radius);
+            let d2 = match i % 9 {
+                0 => o.reach2,
+                1 => o.reach2.next_down(),
+                2 => o.reach2.next_up(),
+                3 => 0.0,
+                4 => rng.range(0.0, radius * radius),
+                5 => rng.range(0.0, 2.0) * o.reach2,
+                _ => {
+                    let d = rng.range(0.0, o.reach + 1.0);
+                    d * d
+                }
+            };
+            let least = match i % 5 {
+                0 => SEMANTIC_CLIP,
+                1 => 0.0,
+                _ => rng.range(0.0, SEMANTIC_CLIP),
+            };
+            let root = newton_sqrt(d2) - o.radius;
+            assert_eq!(
+                least_with(root, least).to_bits(),
+                general(d2, &o, least).to_bits(),
+                "d2 {d2}, radius {radius}, least {least}"
             );
         }
     }
