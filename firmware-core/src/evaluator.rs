@@ -611,83 +611,83 @@ impl Evaluator {
     /// what these give them too, or is never read.
     #[cfg(not(target_arch = "arm"))]
     fn obstacles_wide(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
-        // The beams within reach, one bit each (those the car's pass bins: the bin it gives a
-        // beam, a truncation, is below RANGE_BINS exactly when the product is, the range being
-        // finite and not negative), then their scan points side by side, as the car's pass
-        // computes them.
-        let mut within = 0u64;
-        for (j, (&r, &reach)) in ranges.iter().zip(BEAM_REACH.iter()).enumerate() {
-            let binned = r * (1.0 / RANGE_BIN_WIDTH) < RANGE_BINS as f32;
-            within |= u64::from(r < reach && binned) << j;
-        }
+        // The beams within reach, one bit each: those the car's pass bins (`beams_within_reach`,
+        // the car's own test; every beam within reach is within the bins, asserted).
+        let [low, high] = beams_within_reach(ranges);
+        let within = u64::from(low) | u64::from(high) << 32;
         if within == 0 {
             return Obstacles::Clear;
         }
-        // The beams whose scan point may come within the clip of some lane of each chunk
-        // (`BEAM_CHUNKS`, by the beam's range bin, the one the car's pass puts it in), and the
-        // scan points, as the car's pass computes them.
-        let (clearance, points) = split_points(&mut self.clearance);
-        let mut beams = [0u64; LANE_CHUNKS];
-        while within != 0 {
-            let j = within.trailing_zeros() as usize & (SCAN_BEAMS - 1);
-            within &= within - 1;
+        // The chunks some beam within reach may come within the clip of (`BEAM_CHUNKS`, by the
+        // beam's range bin, the one the car's pass puts it in).
+        let chunks_of = |j: usize| {
+            let b = (ranges[j] * (1.0 / RANGE_BIN_WIDTH)) as usize;
+            BEAM_CHUNKS[j].get(b).copied().unwrap_or(u32::MAX) & ALL_CHUNKS
+        };
+        let mut visited = 0u32;
+        let mut bits = within;
+        while bits != 0 {
+            visited |= chunks_of(bits.trailing_zeros() as usize & (SCAN_BEAMS - 1));
+            bits &= bits - 1;
+        }
+        // Each lane of a visited chunk keeps its least squared distance in its clearance slot,
+        // from the clip's square; the others read the clip.
+        let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
+        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
+        let (lanes, []) = self.clearance[..LANE_CHUNKS * LANES].as_chunks_mut::<LANES>() else {
+            unreachable!("whole chunks")
+        };
+        for (k, c) in lanes.iter_mut().enumerate() {
+            *c = [if visited >> k & 1 != 0 {
+                clip2
+            } else {
+                OBSTACLE_CLIP
+            }; LANES];
+        }
+        // Beam by beam (its scan point as the car's pass computes it), each chunk it may come
+        // within the clip of. `sx − px` is `−(px − sx)` exactly (a rounding to nearest is
+        // symmetric), so its square is the car's.
+        let mut bits = within;
+        while bits != 0 {
+            let j = bits.trailing_zeros() as usize & (SCAN_BEAMS - 1);
+            bits &= bits - 1;
             let r = ranges[j];
-            points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
-            let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
-            let mut chunks = BEAM_CHUNKS[j].get(b).copied().unwrap_or(u32::MAX);
+            let (px, py) = (r * BEAM_COS[j], r * BEAM_SIN[j]);
+            let mut chunks = chunks_of(j);
             while chunks != 0 {
                 let k = chunks.trailing_zeros() as usize;
                 chunks &= chunks - 1;
-                if let Some(of) = beams.get_mut(k) {
-                    *of |= 1 << j;
-                }
-            }
-        }
-        let points = &*points;
-        let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
-        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
-        let (mut collided, mut touched) = (0u64, 0u64);
-        for (k, (c, &near)) in clearance[..LANE_CHUNKS * LANES]
-            .chunks_exact_mut(LANES)
-            .zip(&beams)
-            .enumerate()
-        {
-            if near == 0 {
-                c.fill(OBSTACLE_CLIP);
-                continue;
-            }
-            let [sx, sy] = &SAMPLE_LANES[k];
-            let mut best = [clip2; LANES];
-            let mut bits = near;
-            while bits != 0 {
-                let [px, py] = points[bits.trailing_zeros() as usize & (SCAN_BEAMS - 1)];
-                bits &= bits - 1;
+                let (Some([sx, sy]), Some(best)) = (SAMPLE_LANES.get(k), lanes.get_mut(k)) else {
+                    continue;
+                };
                 for l in 0..LANES {
-                    let dx = px - sx[l];
-                    let dy = py - sy[l];
+                    let dx = sx[l] - px;
+                    let dy = sy[l] - py;
                     best[l] = clipped(dx * dx + dy * dy, best[l]);
                 }
             }
+        }
+        let (mut collided, mut touched) = (0u64, 0u64);
+        let mut bits = visited;
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let (Some(best), Some(of)) = (lanes.get_mut(k), LANE_HALVES.0.get(k)) else {
+                continue;
+            };
             // The trajectories of the lanes within the clip: none when no lane is (every
             // sample belongs to some trajectory).
-            let of = &LANE_TRAJECTORIES[k];
-            let mut within = 0u64;
-            for (&b, &of) in best.iter().zip(of) {
-                within |= if b < clip2 { of } else { 0 };
-            }
-            if within == 0 {
-                c.fill(OBSTACLE_CLIP);
+            if !any_below(best, clip2) {
+                *best = [OBSTACLE_CLIP; LANES];
                 continue;
             }
-            touched |= within;
-            if best.iter().fold(false, |any, &b| any | (b < collide2)) {
-                for (&b, &of) in best.iter().zip(of) {
-                    collided |= if b < collide2 { of } else { 0 };
-                }
+            touched |= trajectories_below(best, clip2, of);
+            if any_below(best, collide2) {
+                collided |= trajectories_below(best, collide2, of);
             }
-            for (c, &b) in c.iter_mut().zip(&best) {
-                let root = clipped(newton_sqrt(b), OBSTACLE_CLIP);
-                *c = if b < clip2 { root } else { OBSTACLE_CLIP };
+            for b in best.iter_mut() {
+                let root = clipped(newton_sqrt(*b), OBSTACLE_CLIP);
+                *b = if *b < clip2 { root } else { OBSTACLE_CLIP };
             }
         }
         Obstacles::Measured {
@@ -1907,17 +1907,76 @@ static LANE_UNION: [u64; LANE_CHUNKS] = {
     out
 };
 
-/// Every sample's trajectories, [`LANES`] at a time (none for the lanes past the last sample).
+/// Every sample's trajectories, [`LANES`] at a time, as two halves (`[k][0]` the low 32 bits
+/// of chunk `k`'s lanes, `[k][1]` the high ones; none for the lanes past the last sample),
+/// aligned for whole vectors ([`trajectories_below`]).
 #[cfg(not(target_arch = "arm"))]
-static LANE_TRAJECTORIES: [[u64; LANES]; LANE_CHUNKS] = {
-    let mut out = [[0; LANES]; LANE_CHUNKS];
+#[repr(C, align(64))]
+struct LaneHalves([[[u32; LANES]; 2]; LANE_CHUNKS]);
+
+/// See [`LaneHalves`].
+#[cfg(not(target_arch = "arm"))]
+static LANE_HALVES: LaneHalves = {
+    let mut out = [[[0; LANES]; 2]; LANE_CHUNKS];
     let mut u = 0;
     while u < UNIQUE_SAMPLES {
         assert!(SAMPLE_TRAJECTORIES[u] != 0, "every sample has a trajectory");
-        out[u / LANES][u % LANES] = SAMPLE_TRAJECTORIES[u];
+        let (k, l) = (u / LANES, u % LANES);
+        out[k][0][l] = SAMPLE_TRAJECTORIES[u] as u32;
+        out[k][1][l] = (SAMPLE_TRAJECTORIES[u] >> 32) as u32;
         u += 1;
     }
-    out
+    LaneHalves(out)
+};
+
+/// The union of the trajectories (`of`: a chunk's [`LANE_HALVES`]) of the lanes whose value is
+/// below `x`: each lane's halves under a mask of all ones or zeros, in four accumulators of
+/// each half (the compiler keeps them in two vectors; inlined, it left them scalar).
+#[cfg(not(target_arch = "arm"))]
+#[inline(never)]
+fn trajectories_below(values: &[f32; LANES], x: f32, of: &[[u32; LANES]; 2]) -> u64 {
+    let (mut low, mut high) = ([0u32; 4], [0u32; 4]);
+    for g in 0..LANES / 4 {
+        for i in 0..4 {
+            let l = 4 * g + i;
+            let m = if values[l] < x { u32::MAX } else { 0 };
+            low[i] |= m & of[0][l];
+            high[i] |= m & of[1][l];
+        }
+    }
+    let low = (low[0] | low[1]) | (low[2] | low[3]);
+    let high = (high[0] | high[1]) | (high[2] | high[3]);
+    u64::from(low) | u64::from(high) << 32
+}
+
+/// Whether some lane's value is below `x` (one comparison a lane, without an early exit: the
+/// compiler tests them together).
+#[cfg(not(target_arch = "arm"))]
+#[inline(always)]
+fn any_below(values: &[f32; LANES], x: f32) -> bool {
+    values.iter().fold(false, |any, &v| any | (v < x))
+}
+
+/// Every chunk, one bit each.
+#[cfg(not(target_arch = "arm"))]
+const ALL_CHUNKS: u32 = if LANE_CHUNKS == 32 {
+    u32::MAX
+} else {
+    (1 << LANE_CHUNKS) - 1
+};
+
+#[cfg(not(target_arch = "arm"))]
+const _: () = assert!(LANES.is_multiple_of(4), "four lanes a vector");
+
+/// Every beam within reach is within the range bins (the car's pass, which leaves out a beam
+/// past the last bin, and the host's, which does not test it, take the same beams): the
+/// longest reach's bin, as `r · (1 / RANGE_BIN_WIDTH)` rounds it, with room to spare.
+const _: () = {
+    let mut j = 0;
+    while j < SCAN_BEAMS {
+        assert!(BEAM_REACH[j] * (1.0 / RANGE_BIN_WIDTH) < RANGE_BINS as f32 - 0.5);
+        j += 1;
+    }
 };
 
 /// Range bins below the first that holds only beams at least the clip plus the largest spread
