@@ -130,7 +130,7 @@
 //!   by one formula without a branch, skipping the chunks whose bounding box is out of the
 //!   object's reach (no per-cluster loops, cases or dominance test);
 //! * the rows start from the path and side features of every action (the car's
-//!   `PathFrame::path_and_side`), then are written whole, without the loops over bits.
+//!   `PathFrame::path_and_side_of`), then are written whole (and the colliding ones zeroed).
 //!
 //! Each value comes from the same operations as on the car, so the masks and rows are the same
 //! bits (tested on random observations against the car's paths, run on the host).
@@ -1233,19 +1233,40 @@ fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS
 }
 
 /// [`start_rows`] on a wide target: the path and side features of every action first (the same
-/// [`PathFrame::path_and_side`]), then every row written whole, without the loops over bits.
+/// [`PathFrame::path_and_side_of`], on the end points one array per coordinate, which the
+/// compiler takes four actions at a time), then every row written whole, and the rows of the
+/// trajectories that collide zeroed.
 #[cfg(not(target_arch = "arm"))]
 fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS]) {
     const CLIPS: f32 = SAMPLES as f32;
-    let ends: [[f32; 2]; MAX_ACTIONS] = core::array::from_fn(|a| frame.path_and_side(a));
-    for (a, (row, &[path, side])) in rows.iter_mut().zip(&ends).enumerate() {
-        *row = if allowed >> a & 1 != 0 {
-            [CLIPS, CLIPS, CLIPS, CLIPS, path, side]
-        } else {
-            [0.0; FEATURE_COUNT]
-        };
+    let [xs, ys] = &END_LANES;
+    let mut path = [0.0f32; MAX_ACTIONS];
+    let mut side = [0.0f32; MAX_ACTIONS];
+    for (a, (p, s)) in path.iter_mut().zip(side.iter_mut()).enumerate() {
+        [*p, *s] = frame.path_and_side_of([xs[a], ys[a]]);
+    }
+    for ((row, &p), &s) in rows.iter_mut().zip(&path).zip(&side) {
+        *row = [CLIPS, CLIPS, CLIPS, CLIPS, p, s];
+    }
+    let mut collided = !allowed;
+    while collided != 0 {
+        rows[collided.trailing_zeros() as usize & (MAX_ACTIONS - 1)] = [0.0; FEATURE_COUNT];
+        collided &= collided - 1;
     }
 }
+
+/// The trajectories' end points, one array per coordinate (`[x, y]`), for [`start_rows_wide`].
+#[cfg(not(target_arch = "arm"))]
+static END_LANES: [[f32; MAX_ACTIONS]; 2] = {
+    let mut out = [[0.0; MAX_ACTIONS]; 2];
+    let mut a = 0;
+    while a < MAX_ACTIONS {
+        out[0][a] = END_POINTS[a][0];
+        out[1][a] = END_POINTS[a][1];
+        a += 1;
+    }
+    out
+};
 
 /// The objects within reach of some point within `spread` of `centre` (a region's or a
 /// cluster's), one bit each, and the squared distance from the centre to the last of them (the
@@ -2022,7 +2043,7 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     let (s, c) = sincosf(p.heading);
     let mut out = [0.0f32; MAX_ACTIONS];
     for (d, &[x, y]) in out.iter_mut().zip(END_POINTS.iter()) {
-        // The cross-track part of the end in the reference's frame (as `PathFrame::path_and_side`'s
+        // The cross-track part of the end in the reference's frame (as `PathFrame::path_and_side_of`'s
         // `local.y`), written out with `sincosf`.
         let dx = x - p.x;
         let dy = y - p.y;
@@ -2054,18 +2075,8 @@ impl PathFrame {
         }
     }
 
-    /// Path error and lateral offset of trajectory `a`'s end: the end in the frame of the path
-    /// reference (`along`, `cross`), and the end's `y`.
-    ///
-    /// (On a wide target; the car's `start_rows` takes [`PathFrame::path_and_side_of`] of the
-    /// end points' halves.)
-    #[cfg(not(target_arch = "arm"))]
-    #[inline(always)]
-    fn path_and_side(&self, a: usize) -> [f32; 2] {
-        self.path_and_side_of(END_POINTS[a & (MAX_ACTIONS - 1)])
-    }
-
-    /// [`PathFrame::path_and_side`] of the trajectory that ends at `[x, y]`.
+    /// Path error and lateral offset of the trajectory that ends at `[x, y]`: the end in the
+    /// frame of the path reference (`along`, `cross`), and the end's `y`.
     #[inline(always)]
     fn path_and_side_of(&self, [x, y]: [f32; 2]) -> [f32; 2] {
         let local = self.reference.inverse_transform_point(&Point2::new(x, y));
