@@ -984,8 +984,9 @@ impl Evaluator {
     /// distance to the object is at least the reach's square has every lane out of reach (the
     /// differences, squares and sums are rounded monotonically, and no lane's difference is
     /// smaller than the box's); and the least does not depend on the order it is taken in (no
-    /// value is NaN or −0). `touched` holds the trajectories of every chunk with a lane below the
-    /// clip (a trajectory whose samples all read the clip sums them to ten clips, exactly).
+    /// value is NaN or −0). `touched` holds the trajectories of every chunk within some object's
+    /// reach, every one with a lane below the clip among them (a trajectory whose samples all
+    /// read the clip sums them to ten clips, exactly: summing one more changes no bit).
     #[cfg(not(target_arch = "arm"))]
     fn semantic_lanes(
         &mut self,
@@ -994,32 +995,36 @@ impl Evaluator {
         f: usize,
         rows: &mut [Features; MAX_ACTIONS],
     ) {
+        // Which chunks each object's reach comes within: whether the box's nearest point, by
+        // coordinate, is nearer than the reach (every chunk side by side).
+        let mut near = [[false; LANE_CHUNKS]; MAX_OBJECTS];
+        let [[x0, x1], [y0, y1]] = &BOX_LANES;
+        for (o, near) in objects.iter().zip(near.iter_mut()) {
+            for (k, near) in near.iter_mut().enumerate() {
+                let dx = at_least(at_least(x0[k] - o.x, o.x - x1[k]), 0.0);
+                let dy = at_least(at_least(y0[k] - o.y, o.y - y1[k]), 0.0);
+                *near = dx * dx + dy * dy < o.reach2;
+            }
+        }
         let mut touched = 0u64;
         for (k, c) in self.clearance[..LANE_CHUNKS * LANES]
             .chunks_exact_mut(LANES)
             .enumerate()
         {
             let [sx, sy] = &SAMPLE_LANES[k];
-            let [[x0, x1], [y0, y1]] = LANE_BOXES[k];
             let mut least = [SEMANTIC_CLIP; LANES];
-            for o in objects {
-                // The box's nearest point's distance from the object, by coordinate.
-                let dx = at_least(at_least(x0 - o.x, o.x - x1), 0.0);
-                let dy = at_least(at_least(y0 - o.y, o.y - y1), 0.0);
-                if dx * dx + dy * dy >= o.reach2 {
+            for (o, near) in objects.iter().zip(&near) {
+                if !near[k] {
                     continue;
                 }
+                // Some lane may be below the clip: the chunk's trajectories may sum less than
+                // ten clips (a trajectory whose samples all read the clip sums exactly ten).
+                touched |= LANE_UNION[k];
                 let (ox, oy, radius) = (o.x, o.y, o.radius);
                 for l in 0..LANES {
                     let (dx, dy) = (sx[l] - ox, sy[l] - oy);
                     least[l] = least_with(newton_sqrt(dx * dx + dy * dy) - radius, least[l]);
                 }
-            }
-            if least
-                .iter()
-                .fold(false, |any, &d| any | (d < SEMANTIC_CLIP))
-            {
-                touched |= LANE_UNION[k];
             }
             c.copy_from_slice(&least);
         }
@@ -1908,6 +1913,24 @@ static LANE_BOXES: [[[f32; 2]; 2]; LANE_CHUNKS] = {
 fn least_with(d: f32, least: f32) -> f32 {
     clipped(if d > 0.0 { d } else { 0.0 }, least)
 }
+
+/// [`LANE_BOXES`] one array per bound, for every chunk side by side: `[[x_min, x_max], [y_min,
+/// y_max]]`.
+#[cfg(not(target_arch = "arm"))]
+static BOX_LANES: [[[f32; LANE_CHUNKS]; 2]; 2] = {
+    let mut out = [[[0.0; LANE_CHUNKS]; 2]; 2];
+    let mut k = 0;
+    while k < LANE_CHUNKS {
+        let mut i = 0;
+        while i < 2 {
+            out[i][0][k] = LANE_BOXES[k][i][0];
+            out[i][1][k] = LANE_BOXES[k][i][1];
+            i += 1;
+        }
+        k += 1;
+    }
+    out
+};
 
 /// The greater of `a` and `b` (no NaN here).
 #[cfg(not(target_arch = "arm"))]
