@@ -1006,27 +1006,27 @@ impl Evaluator {
                 *near = dx * dx + dy * dy < o.reach2;
             }
         }
+        // Every lane from the clip, then each object over the chunks within its reach.
+        let (lanes, []) = self.clearance[..LANE_CHUNKS * LANES].as_chunks_mut::<LANES>() else {
+            unreachable!("whole chunks")
+        };
+        lanes.fill([SEMANTIC_CLIP; LANES]);
         let mut touched = 0u64;
-        for (k, c) in self.clearance[..LANE_CHUNKS * LANES]
-            .chunks_exact_mut(LANES)
-            .enumerate()
-        {
-            let [sx, sy] = &SAMPLE_LANES[k];
-            let mut least = [SEMANTIC_CLIP; LANES];
-            for (o, near) in objects.iter().zip(&near) {
-                if !near[k] {
+        for (o, near) in objects.iter().zip(&near) {
+            let (ox, oy, radius) = (o.x, o.y, o.radius);
+            for (k, (least, &near)) in lanes.iter_mut().zip(near).enumerate() {
+                if !near {
                     continue;
                 }
                 // Some lane may be below the clip: the chunk's trajectories may sum less than
                 // ten clips (a trajectory whose samples all read the clip sums exactly ten).
                 touched |= LANE_UNION[k];
-                let (ox, oy, radius) = (o.x, o.y, o.radius);
+                let [sx, sy] = &SAMPLE_LANES[k];
                 for l in 0..LANES {
                     let (dx, dy) = (sx[l] - ox, sy[l] - oy);
                     least[l] = least_with(newton_sqrt(dx * dx + dy * dy) - radius, least[l]);
                 }
             }
-            c.copy_from_slice(&least);
         }
         if touched == 0 {
             // No sample within the clip of an object: the rows hold ten clips already.
