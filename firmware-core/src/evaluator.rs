@@ -115,20 +115,21 @@
 //! work, on the samples sixteen at a time (`LANES`, one array per coordinate; the lanes past the
 //! last sample lie far from everything):
 //!
-//! * the obstacle pass measures each chunk of samples against every scan point within reach
-//!   (the beams the car's pass bins: 6.8 a tick on average on `doors`) that a table made by
-//!   `build.rs` does not leave out (`BEAM_CHUNKS`: per beam and range bin, the chunks some
-//!   sample of which a point of that beam and bin may come within the clip of), each lane
-//!   keeping its least squared distance: no clusters, windows, bands or near sets. The least
+//! * the obstacle pass takes every scan point within reach (the beams the car's pass bins: 6.8
+//!   a tick on average on `doors`), one after the other, to each chunk of samples a table made
+//!   by `build.rs` does not leave out for it (`BEAM_CHUNKS`: per beam and range bin, the chunks
+//!   some sample of which a point of that beam and bin may come within the clip of), each lane
+//!   keeping its least squared distance in its clearance slot: no clusters, windows, bands or
+//!   near sets. The least
 //!   over those points is the car's least over the cluster's near set whenever it is below the
 //!   clip's square (that point is in both sets), and both read the clip's square otherwise, so
 //!   every collision test and clearance comes from the same number; what the car's pass skips
 //!   (a cluster beyond the clip, one within the collision radius of its centre's nearest point,
 //!   the members whose trajectories all collide already) is what these give too, or is never
 //!   read;
-//! * the semantic pass takes, lane by lane, the least of the clip and each object's clearance
-//!   by one formula without a branch, skipping the chunks whose bounding box is out of the
-//!   object's reach (no per-cluster loops, cases or dominance test);
+//! * the semantic pass takes, object by object, every lane of the chunks whose bounding box is
+//!   within the object's reach to the least of the clip and its clearance, by one formula
+//!   without a branch (no per-cluster loops, cases or dominance test);
 //! * the rows start from the path and side features of every action (the car's
 //!   `PathFrame::path_and_side_of`), then are written whole (and the colliding ones zeroed).
 //!
@@ -595,10 +596,11 @@ impl Evaluator {
         }
     }
 
-    /// [`Evaluator::obstacles`] on a wide target: every sample measured against every scan point
-    /// within reach that `BEAM_CHUNKS` does not leave out for its chunk, [`LANES`] samples side
-    /// by side, without the clusters' pruning (see "On the host" in the module documentation). The same mask, the same clearance for every sample
-    /// of a trajectory that does not collide, and `touched` the same on those trajectories.
+    /// [`Evaluator::obstacles`] on a wide target: every scan point within reach, beam by beam,
+    /// measured against each chunk of samples that `BEAM_CHUNKS` does not leave out for it,
+    /// [`LANES`] samples side by side, without the clusters' pruning (see "On the host" in the
+    /// module documentation). The same mask, the same clearance for every sample of a
+    /// trajectory that does not collide, and `touched` the same on those trajectories.
     ///
     /// The least squared distance of a sample over the points within reach its chunk keeps is
     /// the least over its cluster's near set whenever it is below the clip's square (that point
