@@ -2286,6 +2286,59 @@ mod tests {
         }
     }
 
+    /// The host's paths and the car's on scans at the edges the host's obstacle pass decides
+    /// on: every beam at 0, at its reach and just below it, at each range bin's edges and their
+    /// neighbours, at the range that puts its point nearest a sample (on it, for the samples on
+    /// the beam's ray), and at the collision radius and the clip from a sample along the ray;
+    /// with and without objects on samples.
+    #[test]
+    fn the_wide_paths_are_the_cars_at_the_edges() {
+        let mut rng = Rng(0x510e_527f_ade6_82d1);
+        let (mut narrow, mut wide) = (Evaluator::new(), Evaluator::new());
+        let mut compare = |obs: &Observation| {
+            let valid = obs.check().unwrap();
+            let frame = PathFrame::new(&obs.reference);
+            let mut tables = [FeatureTable::ZERO, FeatureTable::ZERO];
+            let masks = [
+                narrow.clearances_with::<false>(valid, &frame, &mut tables[0]),
+                wide.clearances_with::<true>(valid, &frame, &mut tables[1]),
+            ];
+            let bits = |t: &FeatureTable| -> Vec<u32> {
+                t.rows().iter().flatten().map(|v| v.to_bits()).collect()
+            };
+            assert_eq!(masks[0], masks[1], "{obs:?}");
+            assert_eq!(bits(&tables[0]), bits(&tables[1]), "{obs:?}");
+        };
+        for case in 0..4_000 {
+            let mut obs = random_observation(&mut rng);
+            if case % 2 == 0 {
+                obs.objects.clear();
+            }
+            for j in 0..SCAN_BEAMS {
+                let (c, s) = (BEAM_COS[j], BEAM_SIN[j]);
+                let [x, y] = SAMPLE_POINTS[(rng.next() % UNIQUE_SAMPLES as u64) as usize];
+                let along = (x * c + y * s).max(0.0);
+                let bin = (rng.next() % (RANGE_BINS as u64 + 1)) as f32 * RANGE_BIN_WIDTH;
+                let r = match rng.next() % 12 {
+                    0 => 0.0,
+                    1 => BEAM_REACH[j],
+                    2 => BEAM_REACH[j].next_down(),
+                    3 => bin,
+                    4 => bin.next_down(),
+                    5 => bin.next_up(),
+                    6 => along,
+                    7 => along + COLLISION_RADIUS,
+                    8 => (along - COLLISION_RADIUS).max(0.0),
+                    9 => along + OBSTACLE_CLIP,
+                    10 => (along - OBSTACLE_CLIP).max(0.0),
+                    _ => obs.scan.ranges[j],
+                };
+                obs.scan.ranges[j] = r.clamp(0.0, crate::observation::SCAN_MAX_RANGE);
+            }
+            compare(&obs);
+        }
+    }
+
     /// `least_with` is the general member loop's value taken into the least, bit for bit: on
     /// random squared distances and radii, each reach's square and its neighbours, a sample on
     /// the centre, and every least from 0 to the clip.
