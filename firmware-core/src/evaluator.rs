@@ -115,22 +115,23 @@
 //! work, on the samples sixteen at a time (`LANES`, one array per coordinate; the lanes past the
 //! last sample lie far from everything):
 //!
-//! * the obstacle pass measures each chunk of samples against every scan point within reach
-//!   (the beams the car's pass bins: 6.8 a tick on average on `doors`) that a table made by
-//!   `build.rs` does not leave out (`BEAM_CHUNKS`: per beam and range bin, the chunks some
-//!   sample of which a point of that beam and bin may come within the clip of), each lane
-//!   keeping its least squared distance: no clusters, windows, bands or near sets. The least
+//! * the obstacle pass takes every scan point within reach (the beams the car's pass bins: 6.8
+//!   a tick on average on `doors`), one after the other, to each chunk of samples a table made
+//!   by `build.rs` does not leave out for it (`BEAM_CHUNKS`: per beam and range bin, the chunks
+//!   some sample of which a point of that beam and bin may come within the clip of), each lane
+//!   keeping its least squared distance in its clearance slot: no clusters, windows, bands or
+//!   near sets. The least
 //!   over those points is the car's least over the cluster's near set whenever it is below the
 //!   clip's square (that point is in both sets), and both read the clip's square otherwise, so
 //!   every collision test and clearance comes from the same number; what the car's pass skips
 //!   (a cluster beyond the clip, one within the collision radius of its centre's nearest point,
 //!   the members whose trajectories all collide already) is what these give too, or is never
 //!   read;
-//! * the semantic pass takes, lane by lane, the least of the clip and each object's clearance
-//!   by one formula without a branch, skipping the chunks whose bounding box is out of the
-//!   object's reach (no per-cluster loops, cases or dominance test);
+//! * the semantic pass takes, object by object, every lane of the chunks whose bounding box is
+//!   within the object's reach to the least of the clip and its clearance, by one formula
+//!   without a branch (no per-cluster loops, cases or dominance test);
 //! * the rows start from the path and side features of every action (the car's
-//!   `PathFrame::path_and_side`), then are written whole, without the loops over bits.
+//!   `PathFrame::path_and_side_of`), then are written whole (and the colliding ones zeroed).
 //!
 //! Each value comes from the same operations as on the car, so the masks and rows are the same
 //! bits (tested on random observations against the car's paths, run on the host).
@@ -595,10 +596,11 @@ impl Evaluator {
         }
     }
 
-    /// [`Evaluator::obstacles`] on a wide target: every sample measured against every scan point
-    /// within reach that `BEAM_CHUNKS` does not leave out for its chunk, [`LANES`] samples side
-    /// by side, without the clusters' pruning (see "On the host" in the module documentation). The same mask, the same clearance for every sample
-    /// of a trajectory that does not collide, and `touched` the same on those trajectories.
+    /// [`Evaluator::obstacles`] on a wide target: every scan point within reach, beam by beam,
+    /// measured against each chunk of samples that `BEAM_CHUNKS` does not leave out for it,
+    /// [`LANES`] samples side by side, without the clusters' pruning (see "On the host" in the
+    /// module documentation). The same mask, the same clearance for every sample of a
+    /// trajectory that does not collide, and `touched` the same on those trajectories.
     ///
     /// The least squared distance of a sample over the points within reach its chunk keeps is
     /// the least over its cluster's near set whenever it is below the clip's square (that point
@@ -611,83 +613,83 @@ impl Evaluator {
     /// what these give them too, or is never read.
     #[cfg(not(target_arch = "arm"))]
     fn obstacles_wide(&mut self, ranges: &[f32; SCAN_BEAMS]) -> Obstacles {
-        // The beams within reach, one bit each (those the car's pass bins: the bin it gives a
-        // beam, a truncation, is below RANGE_BINS exactly when the product is, the range being
-        // finite and not negative), then their scan points side by side, as the car's pass
-        // computes them.
-        let mut within = 0u64;
-        for (j, (&r, &reach)) in ranges.iter().zip(BEAM_REACH.iter()).enumerate() {
-            let binned = r * (1.0 / RANGE_BIN_WIDTH) < RANGE_BINS as f32;
-            within |= u64::from(r < reach && binned) << j;
-        }
+        // The beams within reach, one bit each: those the car's pass bins (`beams_within_reach`,
+        // the car's own test; every beam within reach is within the bins, asserted).
+        let [low, high] = beams_within_reach(ranges);
+        let within = u64::from(low) | u64::from(high) << 32;
         if within == 0 {
             return Obstacles::Clear;
         }
-        // The beams whose scan point may come within the clip of some lane of each chunk
-        // (`BEAM_CHUNKS`, by the beam's range bin, the one the car's pass puts it in), and the
-        // scan points, as the car's pass computes them.
-        let (clearance, points) = split_points(&mut self.clearance);
-        let mut beams = [0u64; LANE_CHUNKS];
-        while within != 0 {
-            let j = within.trailing_zeros() as usize & (SCAN_BEAMS - 1);
-            within &= within - 1;
+        // The chunks some beam within reach may come within the clip of (`BEAM_CHUNKS`, by the
+        // beam's range bin, the one the car's pass puts it in).
+        let chunks_of = |j: usize| {
+            let b = (ranges[j] * (1.0 / RANGE_BIN_WIDTH)) as usize;
+            BEAM_CHUNKS[j].get(b).copied().unwrap_or(u32::MAX) & ALL_CHUNKS
+        };
+        let mut visited = 0u32;
+        let mut bits = within;
+        while bits != 0 {
+            visited |= chunks_of(bits.trailing_zeros() as usize & (SCAN_BEAMS - 1));
+            bits &= bits - 1;
+        }
+        // Each lane of a visited chunk keeps its least squared distance in its clearance slot,
+        // from the clip's square; the others read the clip.
+        let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
+        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
+        let (lanes, []) = self.clearance[..LANE_CHUNKS * LANES].as_chunks_mut::<LANES>() else {
+            unreachable!("whole chunks")
+        };
+        for (k, c) in lanes.iter_mut().enumerate() {
+            *c = [if visited >> k & 1 != 0 {
+                clip2
+            } else {
+                OBSTACLE_CLIP
+            }; LANES];
+        }
+        // Beam by beam (its scan point as the car's pass computes it), each chunk it may come
+        // within the clip of. `sx − px` is `−(px − sx)` exactly (a rounding to nearest is
+        // symmetric), so its square is the car's.
+        let mut bits = within;
+        while bits != 0 {
+            let j = bits.trailing_zeros() as usize & (SCAN_BEAMS - 1);
+            bits &= bits - 1;
             let r = ranges[j];
-            points[j] = [r * BEAM_COS[j], r * BEAM_SIN[j]];
-            let b = (r * (1.0 / RANGE_BIN_WIDTH)) as usize;
-            let mut chunks = BEAM_CHUNKS[j].get(b).copied().unwrap_or(u32::MAX);
+            let (px, py) = (r * BEAM_COS[j], r * BEAM_SIN[j]);
+            let mut chunks = chunks_of(j);
             while chunks != 0 {
                 let k = chunks.trailing_zeros() as usize;
                 chunks &= chunks - 1;
-                if let Some(of) = beams.get_mut(k) {
-                    *of |= 1 << j;
-                }
-            }
-        }
-        let points = &*points;
-        let collide2 = COLLISION_RADIUS * COLLISION_RADIUS;
-        let clip2 = OBSTACLE_CLIP * OBSTACLE_CLIP;
-        let (mut collided, mut touched) = (0u64, 0u64);
-        for (k, (c, &near)) in clearance[..LANE_CHUNKS * LANES]
-            .chunks_exact_mut(LANES)
-            .zip(&beams)
-            .enumerate()
-        {
-            if near == 0 {
-                c.fill(OBSTACLE_CLIP);
-                continue;
-            }
-            let [sx, sy] = &SAMPLE_LANES[k];
-            let mut best = [clip2; LANES];
-            let mut bits = near;
-            while bits != 0 {
-                let [px, py] = points[bits.trailing_zeros() as usize & (SCAN_BEAMS - 1)];
-                bits &= bits - 1;
+                let (Some([sx, sy]), Some(best)) = (SAMPLE_LANES.get(k), lanes.get_mut(k)) else {
+                    continue;
+                };
                 for l in 0..LANES {
-                    let dx = px - sx[l];
-                    let dy = py - sy[l];
+                    let dx = sx[l] - px;
+                    let dy = sy[l] - py;
                     best[l] = clipped(dx * dx + dy * dy, best[l]);
                 }
             }
+        }
+        let (mut collided, mut touched) = (0u64, 0u64);
+        let mut bits = visited;
+        while bits != 0 {
+            let k = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let (Some(best), Some(of)) = (lanes.get_mut(k), LANE_HALVES.0.get(k)) else {
+                continue;
+            };
             // The trajectories of the lanes within the clip: none when no lane is (every
             // sample belongs to some trajectory).
-            let of = &LANE_TRAJECTORIES[k];
-            let mut within = 0u64;
-            for (&b, &of) in best.iter().zip(of) {
-                within |= if b < clip2 { of } else { 0 };
-            }
-            if within == 0 {
-                c.fill(OBSTACLE_CLIP);
+            if !any_below(best, clip2) {
+                *best = [OBSTACLE_CLIP; LANES];
                 continue;
             }
-            touched |= within;
-            if best.iter().fold(false, |any, &b| any | (b < collide2)) {
-                for (&b, &of) in best.iter().zip(of) {
-                    collided |= if b < collide2 { of } else { 0 };
-                }
+            touched |= trajectories_below(best, clip2, of);
+            if any_below(best, collide2) {
+                collided |= trajectories_below(best, collide2, of);
             }
-            for (c, &b) in c.iter_mut().zip(&best) {
-                let root = clipped(newton_sqrt(b), OBSTACLE_CLIP);
-                *c = if b < clip2 { root } else { OBSTACLE_CLIP };
+            for b in best.iter_mut() {
+                let root = clipped(newton_sqrt(*b), OBSTACLE_CLIP);
+                *b = if *b < clip2 { root } else { OBSTACLE_CLIP };
             }
         }
         Obstacles::Measured {
@@ -972,9 +974,10 @@ impl Evaluator {
     /// [`Evaluator::semantic`] on a wide target, every disc wider than the margin: the same
     /// values, [`LANES`] samples side by side. Each lane starts at the clip and takes the least
     /// of that and its clearance to each object whose reach comes within the lanes' bounding
-    /// box, by one formula without a branch (the general member loop's: the clip beyond the
-    /// reach, else the root less the radius, at least 0 and at most the clip; `newton_sqrt` for
-    /// every lane, the same bits as `sqrt` for a disc wider than the margin, since a sample
+    /// box, by one formula without a branch ([`least_with`]: the general member loop's value, the
+    /// clip beyond the reach, else the root less the radius, at least 0 and at most the clip,
+    /// taken into the least without its clip and reach test, which change no least; `newton_sqrt`
+    /// for every lane, the same bits as `sqrt` for a disc wider than the margin, since a sample
     /// within `f32::MIN_POSITIVE`'s root of the centre reads 0 either way). A sample no allowed trajectory has is
     /// written and never read; every other reads the least over the objects of the class
     /// within reach of its cluster, as the car's paths give it: an object out of a sample's
@@ -983,8 +986,9 @@ impl Evaluator {
     /// distance to the object is at least the reach's square has every lane out of reach (the
     /// differences, squares and sums are rounded monotonically, and no lane's difference is
     /// smaller than the box's); and the least does not depend on the order it is taken in (no
-    /// value is NaN or −0). `touched` holds the trajectories of every chunk with a lane below the
-    /// clip (a trajectory whose samples all read the clip sums them to ten clips, exactly).
+    /// value is NaN or −0). `touched` holds the trajectories of every chunk within some object's
+    /// reach, every one with a lane below the clip among them (a trajectory whose samples all
+    /// read the clip sums them to ten clips, exactly: summing one more changes no bit).
     #[cfg(not(target_arch = "arm"))]
     fn semantic_lanes(
         &mut self,
@@ -993,38 +997,38 @@ impl Evaluator {
         f: usize,
         rows: &mut [Features; MAX_ACTIONS],
     ) {
+        // Which chunks each object's reach comes within: whether the box's nearest point, by
+        // coordinate, is nearer than the reach (every chunk side by side).
+        let mut near = [[false; LANE_CHUNKS]; MAX_OBJECTS];
+        let [[x0, x1], [y0, y1]] = &BOX_LANES;
+        for (o, near) in objects.iter().zip(near.iter_mut()) {
+            for (k, near) in near.iter_mut().enumerate() {
+                let dx = at_least(at_least(x0[k] - o.x, o.x - x1[k]), 0.0);
+                let dy = at_least(at_least(y0[k] - o.y, o.y - y1[k]), 0.0);
+                *near = dx * dx + dy * dy < o.reach2;
+            }
+        }
+        // Every lane from the clip, then each object over the chunks within its reach.
+        let (lanes, []) = self.clearance[..LANE_CHUNKS * LANES].as_chunks_mut::<LANES>() else {
+            unreachable!("whole chunks")
+        };
+        lanes.fill([SEMANTIC_CLIP; LANES]);
         let mut touched = 0u64;
-        for (k, c) in self.clearance[..LANE_CHUNKS * LANES]
-            .chunks_exact_mut(LANES)
-            .enumerate()
-        {
-            let [sx, sy] = &SAMPLE_LANES[k];
-            let [[x0, x1], [y0, y1]] = LANE_BOXES[k];
-            let mut least = [SEMANTIC_CLIP; LANES];
-            for o in objects {
-                // The box's nearest point's distance from the object, by coordinate.
-                let dx = at_least(at_least(x0 - o.x, o.x - x1), 0.0);
-                let dy = at_least(at_least(y0 - o.y, o.y - y1), 0.0);
-                if dx * dx + dy * dy >= o.reach2 {
+        for (o, near) in objects.iter().zip(&near) {
+            let (ox, oy, radius) = (o.x, o.y, o.radius);
+            for (k, (least, &near)) in lanes.iter_mut().zip(near).enumerate() {
+                if !near {
                     continue;
                 }
-                let (ox, oy, radius, reach2) = (o.x, o.y, o.radius, o.reach2);
+                // Some lane may be below the clip: the chunk's trajectories may sum less than
+                // ten clips (a trajectory whose samples all read the clip sums exactly ten).
+                touched |= LANE_UNION[k];
+                let [sx, sy] = &SAMPLE_LANES[k];
                 for l in 0..LANES {
                     let (dx, dy) = (sx[l] - ox, sy[l] - oy);
-                    let d2 = dx * dx + dy * dy;
-                    let d = newton_sqrt(d2) - radius;
-                    let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
-                    let d = if d2 < reach2 { d } else { SEMANTIC_CLIP };
-                    least[l] = clipped(d, least[l]);
+                    least[l] = least_with(newton_sqrt(dx * dx + dy * dy) - radius, least[l]);
                 }
             }
-            if least
-                .iter()
-                .fold(false, |any, &d| any | (d < SEMANTIC_CLIP))
-            {
-                touched |= LANE_UNION[k];
-            }
-            c.copy_from_slice(&least);
         }
         if touched == 0 {
             // No sample within the clip of an object: the rows hold ten clips already.
@@ -1236,19 +1240,40 @@ fn start_rows(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS
 }
 
 /// [`start_rows`] on a wide target: the path and side features of every action first (the same
-/// [`PathFrame::path_and_side`]), then every row written whole, without the loops over bits.
+/// [`PathFrame::path_and_side_of`], on the end points one array per coordinate, which the
+/// compiler takes four actions at a time), then every row written whole, and the rows of the
+/// trajectories that collide zeroed.
 #[cfg(not(target_arch = "arm"))]
 fn start_rows_wide(allowed: u64, frame: &PathFrame, rows: &mut [Features; MAX_ACTIONS]) {
     const CLIPS: f32 = SAMPLES as f32;
-    let ends: [[f32; 2]; MAX_ACTIONS] = core::array::from_fn(|a| frame.path_and_side(a));
-    for (a, (row, &[path, side])) in rows.iter_mut().zip(&ends).enumerate() {
-        *row = if allowed >> a & 1 != 0 {
-            [CLIPS, CLIPS, CLIPS, CLIPS, path, side]
-        } else {
-            [0.0; FEATURE_COUNT]
-        };
+    let [xs, ys] = &END_LANES;
+    let mut path = [0.0f32; MAX_ACTIONS];
+    let mut side = [0.0f32; MAX_ACTIONS];
+    for (a, (p, s)) in path.iter_mut().zip(side.iter_mut()).enumerate() {
+        [*p, *s] = frame.path_and_side_of([xs[a], ys[a]]);
+    }
+    for ((row, &p), &s) in rows.iter_mut().zip(&path).zip(&side) {
+        *row = [CLIPS, CLIPS, CLIPS, CLIPS, p, s];
+    }
+    let mut collided = !allowed;
+    while collided != 0 {
+        rows[collided.trailing_zeros() as usize & (MAX_ACTIONS - 1)] = [0.0; FEATURE_COUNT];
+        collided &= collided - 1;
     }
 }
+
+/// The trajectories' end points, one array per coordinate (`[x, y]`), for [`start_rows_wide`].
+#[cfg(not(target_arch = "arm"))]
+static END_LANES: [[f32; MAX_ACTIONS]; 2] = {
+    let mut out = [[0.0; MAX_ACTIONS]; 2];
+    let mut a = 0;
+    while a < MAX_ACTIONS {
+        out[0][a] = END_POINTS[a][0];
+        out[1][a] = END_POINTS[a][1];
+        a += 1;
+    }
+    out
+};
 
 /// The objects within reach of some point within `spread` of `centre` (a region's or a
 /// cluster's), one bit each, and the squared distance from the centre to the last of them (the
@@ -1877,6 +1902,38 @@ static LANE_BOXES: [[[f32; 2]; 2]; LANE_CHUNKS] = {
     out
 };
 
+/// The least of `least` (at most [`SEMANTIC_CLIP`]) and the semantic clearance of a lane whose
+/// root less the object's radius is `d`: `d` at least 0, then the least. The same bits as the
+/// general member loop's value (the clip beyond the reach, else `d` at least 0 and at most the
+/// clip) taken into the least, without its clip and its test of the reach: where that value is
+/// the clip, `d` is at least the clip (beyond the reach, the root is at least the reach less
+/// rounding far below its millimetre of margin: `d` exceeds the clip), so the least is `least`
+/// either way (it is at most the clip); elsewhere both are the least of `d` at least 0 and
+/// `least` (tested on every case, `the_lane_formula_is_the_general_loops`).
+#[cfg(not(target_arch = "arm"))]
+#[inline(always)]
+fn least_with(d: f32, least: f32) -> f32 {
+    clipped(if d > 0.0 { d } else { 0.0 }, least)
+}
+
+/// [`LANE_BOXES`] one array per bound, for every chunk side by side: `[[x_min, x_max], [y_min,
+/// y_max]]`.
+#[cfg(not(target_arch = "arm"))]
+static BOX_LANES: [[[f32; LANE_CHUNKS]; 2]; 2] = {
+    let mut out = [[[0.0; LANE_CHUNKS]; 2]; 2];
+    let mut k = 0;
+    while k < LANE_CHUNKS {
+        let mut i = 0;
+        while i < 2 {
+            out[i][0][k] = LANE_BOXES[k][i][0];
+            out[i][1][k] = LANE_BOXES[k][i][1];
+            i += 1;
+        }
+        k += 1;
+    }
+    out
+};
+
 /// The greater of `a` and `b` (no NaN here).
 #[cfg(not(target_arch = "arm"))]
 #[inline(always)]
@@ -1896,17 +1953,76 @@ static LANE_UNION: [u64; LANE_CHUNKS] = {
     out
 };
 
-/// Every sample's trajectories, [`LANES`] at a time (none for the lanes past the last sample).
+/// Every sample's trajectories, [`LANES`] at a time, as two halves (`[k][0]` the low 32 bits
+/// of chunk `k`'s lanes, `[k][1]` the high ones; none for the lanes past the last sample),
+/// aligned for whole vectors ([`trajectories_below`]).
 #[cfg(not(target_arch = "arm"))]
-static LANE_TRAJECTORIES: [[u64; LANES]; LANE_CHUNKS] = {
-    let mut out = [[0; LANES]; LANE_CHUNKS];
+#[repr(C, align(64))]
+struct LaneHalves([[[u32; LANES]; 2]; LANE_CHUNKS]);
+
+/// See [`LaneHalves`].
+#[cfg(not(target_arch = "arm"))]
+static LANE_HALVES: LaneHalves = {
+    let mut out = [[[0; LANES]; 2]; LANE_CHUNKS];
     let mut u = 0;
     while u < UNIQUE_SAMPLES {
         assert!(SAMPLE_TRAJECTORIES[u] != 0, "every sample has a trajectory");
-        out[u / LANES][u % LANES] = SAMPLE_TRAJECTORIES[u];
+        let (k, l) = (u / LANES, u % LANES);
+        out[k][0][l] = SAMPLE_TRAJECTORIES[u] as u32;
+        out[k][1][l] = (SAMPLE_TRAJECTORIES[u] >> 32) as u32;
         u += 1;
     }
-    out
+    LaneHalves(out)
+};
+
+/// The union of the trajectories (`of`: a chunk's [`LANE_HALVES`]) of the lanes whose value is
+/// below `x`: each lane's halves under a mask of all ones or zeros, in four accumulators of
+/// each half (the compiler keeps them in two vectors; inlined, it left them scalar).
+#[cfg(not(target_arch = "arm"))]
+#[inline(never)]
+fn trajectories_below(values: &[f32; LANES], x: f32, of: &[[u32; LANES]; 2]) -> u64 {
+    let (mut low, mut high) = ([0u32; 4], [0u32; 4]);
+    for g in 0..LANES / 4 {
+        for i in 0..4 {
+            let l = 4 * g + i;
+            let m = if values[l] < x { u32::MAX } else { 0 };
+            low[i] |= m & of[0][l];
+            high[i] |= m & of[1][l];
+        }
+    }
+    let low = (low[0] | low[1]) | (low[2] | low[3]);
+    let high = (high[0] | high[1]) | (high[2] | high[3]);
+    u64::from(low) | u64::from(high) << 32
+}
+
+/// Whether some lane's value is below `x` (one comparison a lane, without an early exit: the
+/// compiler tests them together).
+#[cfg(not(target_arch = "arm"))]
+#[inline(always)]
+fn any_below(values: &[f32; LANES], x: f32) -> bool {
+    values.iter().fold(false, |any, &v| any | (v < x))
+}
+
+/// Every chunk, one bit each.
+#[cfg(not(target_arch = "arm"))]
+const ALL_CHUNKS: u32 = if LANE_CHUNKS == 32 {
+    u32::MAX
+} else {
+    (1 << LANE_CHUNKS) - 1
+};
+
+#[cfg(not(target_arch = "arm"))]
+const _: () = assert!(LANES.is_multiple_of(4), "four lanes a vector");
+
+/// Every beam within reach is within the range bins (the car's pass, which leaves out a beam
+/// past the last bin, and the host's, which does not test it, take the same beams): the
+/// longest reach's bin, as `r · (1 / RANGE_BIN_WIDTH)` rounds it, with room to spare.
+const _: () = {
+    let mut j = 0;
+    while j < SCAN_BEAMS {
+        assert!(BEAM_REACH[j] * (1.0 / RANGE_BIN_WIDTH) < RANGE_BINS as f32 - 0.5);
+        j += 1;
+    }
 };
 
 /// Range bins below the first that holds only beams at least the clip plus the largest spread
@@ -1952,7 +2068,7 @@ pub fn cross_track_errors(reference: &PathReference) -> [f32; MAX_ACTIONS] {
     let (s, c) = sincosf(p.heading);
     let mut out = [0.0f32; MAX_ACTIONS];
     for (d, &[x, y]) in out.iter_mut().zip(END_POINTS.iter()) {
-        // The cross-track part of the end in the reference's frame (as `PathFrame::path_and_side`'s
+        // The cross-track part of the end in the reference's frame (as `PathFrame::path_and_side_of`'s
         // `local.y`), written out with `sincosf`.
         let dx = x - p.x;
         let dy = y - p.y;
@@ -1984,18 +2100,8 @@ impl PathFrame {
         }
     }
 
-    /// Path error and lateral offset of trajectory `a`'s end: the end in the frame of the path
-    /// reference (`along`, `cross`), and the end's `y`.
-    ///
-    /// (On a wide target; the car's `start_rows` takes [`PathFrame::path_and_side_of`] of the
-    /// end points' halves.)
-    #[cfg(not(target_arch = "arm"))]
-    #[inline(always)]
-    fn path_and_side(&self, a: usize) -> [f32; 2] {
-        self.path_and_side_of(END_POINTS[a & (MAX_ACTIONS - 1)])
-    }
-
-    /// [`PathFrame::path_and_side`] of the trajectory that ends at `[x, y]`.
+    /// Path error and lateral offset of the trajectory that ends at `[x, y]`: the end in the
+    /// frame of the path reference (`along`, `cross`), and the end's `y`.
     #[inline(always)]
     fn path_and_side_of(&self, [x, y]: [f32; 2]) -> [f32; 2] {
         let local = self.reference.inverse_transform_point(&Point2::new(x, y));
@@ -2176,6 +2282,105 @@ mod tests {
                 bits(&tables[0]),
                 bits(&tables[2]),
                 "observation {i}: {obs:?}"
+            );
+        }
+    }
+
+    /// The host's paths and the car's on scans at the edges the host's obstacle pass decides
+    /// on: every beam at 0, at its reach and just below it, at each range bin's edges and their
+    /// neighbours, at the range that puts its point nearest a sample (on it, for the samples on
+    /// the beam's ray), and at the collision radius and the clip from a sample along the ray;
+    /// with and without objects on samples.
+    #[test]
+    fn the_wide_paths_are_the_cars_at_the_edges() {
+        let mut rng = Rng(0x510e_527f_ade6_82d1);
+        let (mut narrow, mut wide) = (Evaluator::new(), Evaluator::new());
+        let mut compare = |obs: &Observation| {
+            let valid = obs.check().unwrap();
+            let frame = PathFrame::new(&obs.reference);
+            let mut tables = [FeatureTable::ZERO, FeatureTable::ZERO];
+            let masks = [
+                narrow.clearances_with::<false>(valid, &frame, &mut tables[0]),
+                wide.clearances_with::<true>(valid, &frame, &mut tables[1]),
+            ];
+            let bits = |t: &FeatureTable| -> Vec<u32> {
+                t.rows().iter().flatten().map(|v| v.to_bits()).collect()
+            };
+            assert_eq!(masks[0], masks[1], "{obs:?}");
+            assert_eq!(bits(&tables[0]), bits(&tables[1]), "{obs:?}");
+        };
+        for case in 0..4_000 {
+            let mut obs = random_observation(&mut rng);
+            if case % 2 == 0 {
+                obs.objects.clear();
+            }
+            for j in 0..SCAN_BEAMS {
+                let (c, s) = (BEAM_COS[j], BEAM_SIN[j]);
+                let [x, y] = SAMPLE_POINTS[(rng.next() % UNIQUE_SAMPLES as u64) as usize];
+                let along = (x * c + y * s).max(0.0);
+                let bin = (rng.next() % (RANGE_BINS as u64 + 1)) as f32 * RANGE_BIN_WIDTH;
+                let r = match rng.next() % 12 {
+                    0 => 0.0,
+                    1 => BEAM_REACH[j],
+                    2 => BEAM_REACH[j].next_down(),
+                    3 => bin,
+                    4 => bin.next_down(),
+                    5 => bin.next_up(),
+                    6 => along,
+                    7 => along + COLLISION_RADIUS,
+                    8 => (along - COLLISION_RADIUS).max(0.0),
+                    9 => along + OBSTACLE_CLIP,
+                    10 => (along - OBSTACLE_CLIP).max(0.0),
+                    _ => obs.scan.ranges[j],
+                };
+                obs.scan.ranges[j] = r.clamp(0.0, crate::observation::SCAN_MAX_RANGE);
+            }
+            compare(&obs);
+        }
+    }
+
+    /// `least_with` is the general member loop's value taken into the least, bit for bit: on
+    /// random squared distances and radii, each reach's square and its neighbours, a sample on
+    /// the centre, and every least from 0 to the clip.
+    #[test]
+    fn the_lane_formula_is_the_general_loops() {
+        use crate::observation::MAX_OBJECT_RADIUS;
+        let mut rng = Rng(0x3c6e_f372_fe94_f82b);
+        let general = |d2: f32, o: &Disc, least: f32| {
+            let d = newton_sqrt(d2) - o.radius;
+            let d = clipped(if d > 0.0 { d } else { 0.0 }, SEMANTIC_CLIP);
+            clipped(if d2 < o.reach2 { d } else { SEMANTIC_CLIP }, least)
+        };
+        for i in 0..2_000_000u32 {
+            let radius = match i % 7 {
+                0 => REACH_MARGIN,
+                1 => MAX_OBJECT_RADIUS,
+                2 => rng.range(REACH_MARGIN, 0.05),
+                _ => rng.range(REACH_MARGIN, MAX_OBJECT_RADIUS),
+            };
+            let o = Disc::new(rng.range(-4.0, 4.0), rng.range(-4.0, 4.0), radius);
+            let d2 = match i % 9 {
+                0 => o.reach2,
+                1 => o.reach2.next_down(),
+                2 => o.reach2.next_up(),
+                3 => 0.0,
+                4 => rng.range(0.0, radius * radius),
+                5 => rng.range(0.0, 2.0) * o.reach2,
+                _ => {
+                    let d = rng.range(0.0, o.reach + 1.0);
+                    d * d
+                }
+            };
+            let least = match i % 5 {
+                0 => SEMANTIC_CLIP,
+                1 => 0.0,
+                _ => rng.range(0.0, SEMANTIC_CLIP),
+            };
+            let root = newton_sqrt(d2) - o.radius;
+            assert_eq!(
+                least_with(root, least).to_bits(),
+                general(d2, &o, least).to_bits(),
+                "d2 {d2}, radius {radius}, least {least}"
             );
         }
     }
