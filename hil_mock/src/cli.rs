@@ -510,8 +510,8 @@ pub const BENCH_BLOCK: u32 = 100;
 /// server and the echo on another, as a car is a computer of its own. Left to the scheduler, the
 /// two sides often end up on one CPU (a wake-up over loopback pulls the woken thread to the
 /// waker's CPU), where each side's busy poll ([`crate::transport::udp`]) holds the CPU its peer
-/// waits for until the poll's window runs out (README, "Benchmarks"). The measuring runs in
-/// threads of its own: the caller's thread keeps its affinity.
+/// waits for until the poll's window runs out (docs/performance.md, "The link"). The measuring
+/// runs in threads of its own: the caller's thread keeps its affinity.
 pub fn bench_latency(count: u32, pin: bool) -> Result<Latency> {
     if count < 2 {
         bail!("bench_latency: at least 2 round trips (the first follows the ping-pongs)");

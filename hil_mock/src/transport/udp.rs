@@ -23,20 +23,20 @@
 //! the time left (a timeout ends on the kernel's high-resolution timer, within its 50 µs slack).
 //! The busy poll is for the wake-up: a thread asleep in `poll` is woken by the sender's kernel,
 //! which on this machine's virtual CPUs costs several times the datagram's own trip (issue 17: back
-//! to back, the round trip's p50 went 78–90 → 11–15 µs, README "Benchmarks"). The window adapts: a
-//! poll that catches a datagram doubles it, up to [`DEFAULT_BUSY_POLL`]; one that runs out halves
-//! it, down to [`MIN_BUSY_POLL`]. So a link whose peer answers at once keeps polling, and one whose
-//! answers come late (a car at a real tick rate, a machine whose cores are busy, where polling
-//! keeps the peer from a core) polls only briefly. It never stops altogether: a link that slept
-//! cannot tell from the time its datagram came whether a longer poll would have caught it, since
-//! that time includes its own wake-up (tens of microseconds here), so a window that fell to nothing
-//! would stay there. An idle link takes no CPU time. [`UdpLink::set_busy_poll`] sets the limit
-//! ([`Duration::ZERO`]: never).
+//! to back, the round trip's p50 went 78–90 → 11–15 µs, docs/performance.md, "The link"). The
+//! window adapts: a poll that catches a datagram doubles it, up to [`DEFAULT_BUSY_POLL`]; one that
+//! runs out halves it, down to [`MIN_BUSY_POLL`]. So a link whose peer answers at once keeps
+//! polling, and one whose answers come late (a car at a real tick rate, a machine whose cores are
+//! busy, where polling keeps the peer from a core) polls only briefly. It never stops altogether: a
+//! link that slept cannot tell from the time its datagram came whether a longer poll would have
+//! caught it, since that time includes its own wake-up (tens of microseconds here), so a window
+//! that fell to nothing would stay there. An idle link takes no CPU time.
+//! [`UdpLink::set_busy_poll`] sets the limit ([`Duration::ZERO`]: never).
 //!
 //! Both ends busy polling on one CPU wait for each other: each holds the CPU its peer needs until
 //! its window runs out, and a wake-up over loopback tends to pull the woken thread onto the
 //! waker's CPU. A car's server is best on a CPU of its own (`taskset -c 1 hil_mock serve …`), as
-//! `hil_mock bench-latency` places it (README, "Benchmarks").
+//! `hil_mock bench-latency` places it (docs/performance.md, "The link").
 //!
 //! Remote and error frames received are skipped; a packet that is truncated or inconsistent is
 //! reported as malformed and dropped whole.
