@@ -150,6 +150,11 @@ enum Command {
         #[arg(long, default_value_t = 5_000, allow_negative_numbers = true,
               value_parser = checks::count_flag(1..=checks::MAX_STEPS))]
         steps: u32,
+        /// Times to run it, 1 to 1 000: each run is timed alone, then the best, the median and
+        /// the worst are given (this machine's speed moves from one run to the next).
+        #[arg(long, default_value_t = 5, allow_negative_numbers = true,
+              value_parser = checks::count_flag(1..=1_000))]
+        runs: u32,
     },
 }
 
@@ -367,7 +372,11 @@ fn main() -> ExitCode {
         Command::Generate(args) => cli::generate::run(args),
         Command::Lattice { out } => host_sim::report::plot::lattice_svg(out)
             .and_then(|()| Ok(outln!("wrote {}", out.display())?)),
-        Command::Bench { scenario, steps } => cli::inspect::bench(scenario, *steps),
+        Command::Bench {
+            scenario,
+            steps,
+            runs,
+        } => cli::inspect::bench(scenario, *steps, *runs),
         Command::Reproduce(args) => cli::reproduce::reproduce(args),
         Command::Merge { dirs, out } => cli::reproduce::merge(dirs, out),
         Command::ScaleSweep(args) => cli::reproduce::scale_sweep(args),

@@ -44,14 +44,12 @@
 use std::cell::Cell;
 use std::sync::{Arc, LazyLock};
 
-use firmware_core::evaluator::beam_direction;
-use firmware_core::feedback::{DeformedTrajectory, PUSH};
-use firmware_core::lattice::{OBSTACLE_CLIP, trajectory};
+use firmware_core::ActionIndex;
+use firmware_core::lattice::trajectory;
 use firmware_core::observation::{
     MAX_OBJECTS, Observation, PathReference, SCAN_BEAMS, SCAN_MAX_RANGE, Scan, beam_bearing,
 };
 use firmware_core::observation::{ObjectList, SemanticObject};
-use firmware_core::{ActionIndex, MAX_ACTIONS};
 
 use nalgebra::Isometry2;
 
@@ -374,6 +372,7 @@ static BEAM_DIRECTIONS: LazyLock<[(f64, f64); SCAN_BEAMS]> = LazyLock::new(|| {
 
 /// Margin beyond the obstacle clip within which [`scan_cut`] keeps a beam's point (m): far above
 /// the f32 rounding of the evaluator's distances and the evaluator's own reach margin (1 mm).
+#[cfg(test)]
 const CUT_MARGIN: f64 = 0.05;
 
 /// Per beam: how far [`Episode::observe_near`] casts it (m). Beyond it, the beam's scan point is
@@ -386,45 +385,34 @@ pub fn scan_cut(beam: usize) -> Option<f64> {
     SCAN_CUT.get(beam).copied()
 }
 
-/// Every sample [`scan_cut`] keeps its beams' points away from: every lattice trajectory's, and
-/// every deformed trajectory's of a perturbation.
-fn cut_samples() -> Vec<[f32; 2]> {
-    let actions = || (0..MAX_ACTIONS).filter_map(ActionIndex::new);
-    let mut points: Vec<[f32; 2]> = Vec::new();
-    for a in actions() {
-        points.extend_from_slice(trajectory(a).samples());
-        for b in actions() {
-            points.extend_from_slice(DeformedTrajectory::between(a, b, PUSH).samples());
-        }
-    }
-    points
-}
-
-static SCAN_CUT: LazyLock<[f64; SCAN_BEAMS]> = LazyLock::new(|| {
-    let radius = OBSTACLE_CLIP as f64 + CUT_MARGIN;
-    let directions: [(f64, f64); SCAN_BEAMS] = std::array::from_fn(|j| {
-        let (c, s) = beam_direction(j).unwrap_or((1.0, 0.0));
-        (c as f64, s as f64)
-    });
-    // Per beam, the farthest range at which its point is within `radius` of a sample: the far
-    // end of the chord of the disc around the sample. One pass over the samples (the list is
-    // large), every beam for each; a maximum does not depend on the order it is taken in.
-    let mut far = [0.0f64; SCAN_BEAMS];
-    for p in cut_samples() {
-        let (x, y) = (p[0] as f64, p[1] as f64);
-        let n2 = x * x + y * y;
-        for (f, &(c, s)) in far.iter_mut().zip(&directions) {
-            let t = c * x + s * y;
-            let q = t * t - n2 + radius * radius;
-            // Without a branch (a chord or none for each pair, unpredictably; the compiler
-            // vectorizes this): 0 never raises the maximum, which starts at 0, and no value is
-            // NaN (the root of a negative `q` is not taken) or −0.
-            let end = if q > 0.0 { t + q.sqrt() } else { 0.0 };
-            *f = if end > *f { end } else { *f };
-        }
-    }
-    far.map(|far| (far + 0.01).min(SCAN_MAX_RANGE as f64))
-});
+/// [`scan_cut`]'s table, computed once and written down: the test
+/// `scan_cut_is_the_farthest_chord_end_over_every_sample` computes it from its definition, over
+/// every sample (every lattice trajectory's and every deformed trajectory's), and fails, printing
+/// the table to paste here, when a change to the lattice or to a perturbation moves any bit of
+/// it. Every literal is the shortest decimal that reads back as its `f64`'s bits. Computed at the
+/// first scan instead (a `LazyLock`, until 2026-12-04), it cost every process that loads a
+/// scenario (whose check drives a lap) about 33 million instructions, 4 160 trajectories' samples
+/// against 64 beams: `host-sim bench --steps 1` 10 → 5 ms of wall time in release, 20 → 10 ms in
+/// the dev build the tests spawn (issue 17).
+#[rustfmt::skip]
+const SCAN_CUT: [f64; SCAN_BEAMS] = [
+    0.33603182930496, 0.3382103337746598, 0.34169201301277263, 0.34649962594189054,
+    0.35266266184092454, 0.36021562831738385, 0.3691955809840415, 0.37963899484679975,
+    0.3915777410283583, 0.40503424821877654, 0.420015852987739, 0.4365086687312033,
+    0.45447118557946153, 0.47382829814513183, 0.49446619281047877, 0.5162289136017866,
+    0.5389170865887268, 0.5622891413359979, 0.594567354574776, 0.669666126500861,
+    1.0285567486346125, 1.3144819619946642, 1.4607036169266039, 1.5571305843039454,
+    1.6165306513512931, 1.651466918229317, 1.6771504921825138, 1.6931698101663823,
+    1.6992474496130983, 1.7041176803319946, 1.7081101130855976, 1.7080318717095937,
+    1.7080318717095937, 1.7081101130855976, 1.7041176803319946, 1.6992474496130983,
+    1.6931698101663823, 1.6771504921825138, 1.651466918229317, 1.6165306513512931,
+    1.5571305843039454, 1.4607036169266039, 1.3144819619946642, 1.0285567486346125,
+    0.669666126500861, 0.594567354574776, 0.5622891413359979, 0.5389170865887268,
+    0.5162289136017866, 0.49446619281047877, 0.47382829814513183, 0.45447118557946153,
+    0.4365086687312033, 0.420015852987739, 0.40503424821877654, 0.3915777410283583,
+    0.37963899484679975, 0.3691955809840415, 0.36021562831738385, 0.35266266184092454,
+    0.34649962594189054, 0.34169201301277263, 0.3382103337746598, 0.33603182930496,
+];
 
 /// How many points along a beam, after the car, [`Episode::observe_near`] reads the clearance of
 /// before it casts the beam ([`OccupancyGrid::free_by_points_from`]).
@@ -619,6 +607,10 @@ mod tests {
     use crate::world::path::RefPath;
     use crate::world::scenario::{Shape, WorldObject};
     use crate::world::teacher::{TeacherSpec, preset};
+    use firmware_core::MAX_ACTIONS;
+    use firmware_core::evaluator::beam_direction;
+    use firmware_core::feedback::{DeformedTrajectory, PUSH};
+    use firmware_core::lattice::OBSTACLE_CLIP;
     use firmware_core::observation::SemanticClass;
     use nalgebra::Point2;
 
@@ -819,13 +811,28 @@ mod tests {
         format!("{evaluation:?} {deformed:?}")
     }
 
+    /// Every sample [`scan_cut`] keeps its beams' points away from: every lattice trajectory's, and
+    /// every deformed trajectory's of a perturbation.
+    fn cut_samples() -> Vec<[f32; 2]> {
+        let actions = || (0..MAX_ACTIONS).filter_map(ActionIndex::new);
+        let mut points: Vec<[f32; 2]> = Vec::new();
+        for a in actions() {
+            points.extend_from_slice(trajectory(a).samples());
+            for b in actions() {
+                points.extend_from_slice(DeformedTrajectory::between(a, b, PUSH).samples());
+            }
+        }
+        points
+    }
+
     #[test]
     fn scan_cut_is_the_farthest_chord_end_over_every_sample() {
-        // The definition, every sample's root taken: the table skips the samples that cannot
-        // raise the maximum, and must give the same bits.
+        // The definition, every sample's root taken: per beam, the farthest range at which its
+        // point is within the radius of a sample (the far end of the chord of the disc around
+        // it), 1 cm more for the wire's rounding, at most the sensor's range.
         let points = cut_samples();
         let radius = OBSTACLE_CLIP as f64 + CUT_MARGIN;
-        for j in 0..SCAN_BEAMS {
+        let want: [f64; SCAN_BEAMS] = std::array::from_fn(|j| {
             let (c, s) = beam_direction(j).unwrap();
             let (c, s) = (c as f64, s as f64);
             let far = points
@@ -837,9 +844,25 @@ mod tests {
                     (q > 0.0).then(|| t + q.sqrt())
                 })
                 .fold(0.0, f64::max);
-            let want = (far + 0.01).min(SCAN_MAX_RANGE as f64);
-            assert_eq!(scan_cut(j).unwrap().to_bits(), want.to_bits(), "beam {j}");
-        }
+            (far + 0.01).min(SCAN_MAX_RANGE as f64)
+        });
+        let differ: Vec<usize> = (0..SCAN_BEAMS)
+            .filter(|&j| scan_cut(j).unwrap().to_bits() != want[j].to_bits())
+            .collect();
+        let table: Vec<String> = want
+            .chunks(4)
+            .map(|row| {
+                row.iter()
+                    .map(|v| format!("{v:?},"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
+            .collect();
+        assert!(
+            differ.is_empty(),
+            "SCAN_CUT differs from its definition at beams {differ:?}; the table is\n{}",
+            table.join("\n")
+        );
     }
 
     #[test]

@@ -224,6 +224,37 @@ fn lattice_list_and_demo_still_work() {
     assert!(o.status.success(), "{}", stderr(&o));
 }
 
+#[test]
+fn bench_times_each_run_and_sums_them_up() {
+    let o = host_sim(&["bench", "--steps", "300", "--runs", "3"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 5, "{out}");
+    assert!(
+        lines[0].starts_with("doors: 300 simulated steps (action feedback, ")
+            && lines[0].ends_with("corrections), 3 runs"),
+        "{out}"
+    );
+    for (i, line) in lines[1..4].iter().enumerate() {
+        assert!(line.starts_with(&format!("  run {}: ", i + 1)), "{out}");
+    }
+    // Best, median and worst, in that order (the best the most steps a second).
+    let rates: Vec<f64> = lines[4]
+        .split(": ")
+        .nth(1)
+        .unwrap()
+        .split(", ")
+        .map(|part| part.rsplit(' ').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(rates.len(), 3, "{out}");
+    assert!(
+        rates[0] >= rates[1] && rates[1] >= rates[2] && rates[2] > 0.0,
+        "{out}"
+    );
+    assert!(lines[4].starts_with("steps per second"), "{out}");
+}
+
 /// Runs `host-sim args` with its standard output a pipe whose reader has gone.
 fn into_closed_pipe(args: &[&str]) -> Output {
     use std::process::Stdio;
@@ -666,6 +697,7 @@ fn flags_are_checked_before_anything_runs() {
         ),
         (&["demo", "--steps", "0"], "must be in 1..=10000000, got 0"),
         (&["bench", "--steps", "0"], "must be in 1..=10000000, got 0"),
+        (&["bench", "--runs", "0"], "must be in 1..=1000, got 0"),
         (
             &["reproduce", "--steps", "5", "--out", o_],
             "must be in 10..=10000000, got 5",
