@@ -378,9 +378,9 @@ const CUT_MARGIN: f64 = 0.05;
 /// Per beam: how far [`Episode::observe_near`] casts it (m). Beyond it, the beam's scan point is
 /// at least the obstacle clip + `CUT_MARGIN` (5 cm) from every sample the evaluator measures (every
 /// lattice trajectory's) and every sample of a perturbation's deformed trajectory (every pair
-/// pushed [`PUSH`] of the way, and each trajectory as it is), after the range's rounding to
-/// the wire's centimetres (hence 1 cm more): such a beam is one the evaluator leaves out and
-/// no feature can see, whatever its range.
+/// pushed [`PUSH`](firmware_core::feedback::PUSH) of the way, and each trajectory as it is),
+/// after the range's rounding to the wire's centimetres (hence 1 cm more): such a beam is one
+/// the evaluator leaves out and no feature can see, whatever its range.
 pub fn scan_cut(beam: usize) -> Option<f64> {
     SCAN_CUT.get(beam).copied()
 }
