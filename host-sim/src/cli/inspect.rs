@@ -7,6 +7,7 @@ use std::time::Instant;
 use anyhow::{Result, anyhow, bail};
 use host_sim::report::animation::{self, AnimateOptions};
 use host_sim::report::run_folder::RunFolder;
+use host_sim::teach::calibrate::median;
 use host_sim::teach::experiment::{self, RunConfig};
 use host_sim::world::registry;
 use host_sim::world::scenario::Scenario;
@@ -168,7 +169,7 @@ pub(crate) fn bench(scenario: &str, steps: u32, runs: u32) -> Result<()> {
     let mut rates = Vec::with_capacity(runs as usize);
     // Whether every run's rate is of CPU time (else, some of wall time: no CPU clock).
     let mut of_cpu = true;
-    let mut first: Option<String> = None;
+    let mut first = None;
     for run in 1..=runs {
         // The wall clock around the CPU clock's two readings, so that the CPU time is within it.
         let started = Instant::now();
@@ -176,14 +177,9 @@ pub(crate) fn bench(scenario: &str, steps: u32, runs: u32) -> Result<()> {
         let report = experiment::run(&config)?;
         let cpu = on_cpu.zip(thread_cpu_time()).map(|(a, b)| b - a);
         let wall = started.elapsed().as_secs_f64();
-        // Every run is the same seeded run, to the learner's last bit: one that ends elsewhere
-        // is a bug, not the machine's noise.
-        let outcome = format!(
-            "{} corrections, resets {:?}, learner {:?}",
-            report.corrections(),
-            report.resets,
-            report.final_snapshot
-        );
+        // Every run is the same seeded run: one that ends elsewhere (its corrections, its resets,
+        // its learner) is a bug, not the machine's noise.
+        let outcome = (report.corrections(), report.resets, report.final_snapshot);
         match &first {
             None => {
                 outln!(
@@ -195,7 +191,7 @@ pub(crate) fn bench(scenario: &str, steps: u32, runs: u32) -> Result<()> {
                 first = Some(outcome);
             }
             Some(f) if *f != outcome => {
-                bail!("run {run} ended elsewhere than the first: {outcome} against {f}")
+                bail!("run {run} ended elsewhere than the first: {outcome:?} against {f:?}")
             }
             Some(_) => {}
         }
@@ -220,17 +216,13 @@ pub(crate) fn bench(scenario: &str, steps: u32, runs: u32) -> Result<()> {
         }
     }
     if rates.len() > 1 {
-        rates.sort_by(f64::total_cmp);
-        let median = if rates.len() % 2 == 1 {
-            rates[rates.len() / 2]
-        } else {
-            (rates[rates.len() / 2 - 1] + rates[rates.len() / 2]) / 2.0
-        };
+        let (best, worst) = rates
+            .iter()
+            .fold((f64::MIN, f64::MAX), |(b, w), &r| (b.max(r), w.min(r)));
         outln!(
-            "steps per second{} over the {runs} runs: best {:.0}, median {median:.0}, worst {:.0}",
+            "steps per second{} over the {runs} runs: best {best:.0}, median {:.0}, worst {worst:.0}",
             if of_cpu { " of CPU time" } else { "" },
-            rates[rates.len() - 1],
-            rates[0]
+            median(&rates)
         )?;
     }
     Ok(())
